@@ -1,0 +1,194 @@
+"""Gymnasium environments over the cage simulation core.
+
+Registered ids (importing this module registers them):
+  CageNav-v0         full cage, random scenario per episode, known + unknown obstacles, route to follow
+  CageNavMoving-v0   full cage with moving fish schools and a water current
+  CageNavStudy2D-v0  the study's 2D case (one random obstacle)
+  CageNavStudy1D-v0  the study's 1D sanity case
+
+Observation: ``EnvConfig.layout`` (see observation.py). Action: Box[-1, 1] scaled to +-20 deg.
+``CageNavVecEnv`` steps many missions at once with one batched sonar call, for fast training.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Sequence
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from .mission import EnvConfig, Mission
+from .scenarios import Scenario, Sampler, scenario_sampler
+
+WaypointFn = Callable[[Scenario], Sequence[Sequence[float]] | None]
+
+
+def observation_space(config: EnvConfig) -> spaces.Box:
+    lay = config.layout
+    low = np.zeros(lay.size, dtype=np.float32)
+    low[-1] = -1.0
+    return spaces.Box(low=low, high=np.ones(lay.size, dtype=np.float32), dtype=np.float32)
+
+
+ACTION_SPACE = spaces.Box(low=-1.0, high=1.0, shape=(1,), dtype=np.float32)
+
+
+def _prepare(sampler: Sampler, rng: np.random.Generator, waypoint_fn: WaypointFn | None) -> Scenario:
+    sc = sampler(rng)
+    if waypoint_fn is not None and not sc.waypoints:
+        wps = waypoint_fn(sc)
+        if wps is not None and len(wps):
+            sc = sc.with_waypoints(wps)
+    return sc
+
+
+class CageNavEnv(gym.Env):
+    """One AUV mission per episode: scenario drawn from ``scenario`` (name, YAML path, Scenario or
+    sampler), route from the scenario, else from ``waypoint_fn`` (the global planner), else straight."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, scenario: Any = "cage", config: EnvConfig | None = None,
+                 render_mode: str | None = None, waypoint_fn: WaypointFn | None = None):
+        self.config = config or EnvConfig()
+        self.sampler = scenario_sampler(scenario)
+        self.waypoint_fn = waypoint_fn
+        self.observation_space = observation_space(self.config)
+        self.action_space = ACTION_SPACE
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}")
+        self.render_mode = render_mode
+        self.mission: Mission | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        sc = (options or {}).get("scenario") or _prepare(self.sampler, self.np_random, self.waypoint_fn)
+        self.mission = Mission(sc, self.config)
+        return self._obs(), self.mission.info()
+
+    def step(self, action):
+        if self.mission is None:
+            raise RuntimeError("call reset() before step()")
+        a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], -1.0, 1.0))
+        reward, outcome = self.mission.step(a)
+        terminated = outcome in ("goal", "collision", "wander")
+        truncated = outcome == "timeout"
+        return self._obs(), float(reward), terminated, truncated, self.mission.info()
+
+    def _obs(self) -> np.ndarray:
+        return self.mission.observe(self.mission.scan(self.np_random))
+
+    def render(self):
+        if self.render_mode != "rgb_array" or self.mission is None:
+            return None
+        from .plotting import render_rgb
+        return render_rgb(self.mission)
+
+
+class Study1DEnv(gym.Env):
+    """The study's 1D sanity case: start and goal uniform in [0, 10]; action in [-1, 1] is a step of
+    up to 10 m. Reward per step 1 - |d|/d_max, +5 when within 0.5 m: reaching the goal in one step
+    earns the study's best reward of 6. At most 10 steps."""
+
+    metadata = {"render_modes": []}
+    observation_space = spaces.Box(low=-1.0, high=1.0, shape=(1,), dtype=np.float32)
+    action_space = ACTION_SPACE
+
+    def __init__(self, render_mode: str | None = None, max_steps: int = 10):
+        self.render_mode, self.max_steps = render_mode, max_steps
+        self.pos = self.goal = self.d_max = 0.0
+        self.steps = 0
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.pos, self.goal = (float(v) for v in self.np_random.uniform(0.0, 10.0, 2))
+        self.d_max, self.steps = max(abs(self.goal - self.pos), 1e-6), 0
+        return self._obs(), {"outcome": None, "steps": 0}
+
+    def _obs(self) -> np.ndarray:
+        return np.array([(self.goal - self.pos) / 10.0], dtype=np.float32)
+
+    def step(self, action):
+        self.pos += 10.0 * float(np.clip(np.asarray(action).reshape(-1)[0], -1.0, 1.0))
+        self.steps += 1
+        d = abs(self.goal - self.pos)
+        reward = 1.0 - d / self.d_max
+        outcome = None
+        if d < 0.5:
+            reward, outcome = reward + 5.0, "goal"
+        elif self.steps >= self.max_steps:
+            outcome = "timeout"
+        return self._obs(), float(reward), outcome == "goal", outcome == "timeout", \
+            {"outcome": outcome, "steps": self.steps}
+
+
+class CageNavVecEnv:
+    """``n_envs`` missions stepped together; one batched sonar call per step.
+
+    Auto-resets in the same step (Gymnasium's SAME_STEP mode): a finished mission's last observation
+    and info are in ``infos["final_obs"][i]`` / ``infos["final_info"][i]`` and the returned
+    observation is the new episode's first. Each env has its own seeded generator.
+    """
+
+    def __init__(self, n_envs: int, scenario: Any = "cage", config: EnvConfig | None = None,
+                 waypoint_fn: WaypointFn | None = None, seed: int = 0):
+        self.n_envs = n_envs
+        self.config = config or EnvConfig()
+        self.sampler = scenario_sampler(scenario)
+        self.waypoint_fn = waypoint_fn
+        self.single_observation_space = observation_space(self.config)
+        self.single_action_space = ACTION_SPACE
+        seq = np.random.SeedSequence(seed)
+        self.rngs = [np.random.default_rng(s) for s in seq.spawn(n_envs)]
+        self.missions: list[Mission] = []
+
+    def reset(self) -> np.ndarray:
+        self.missions = [Mission(_prepare(self.sampler, r, self.waypoint_fn), self.config) for r in self.rngs]
+        return self._observe(range(self.n_envs))
+
+    def _observe(self, idx) -> np.ndarray:
+        idx = list(idx)
+        ms = [self.missions[i] for i in idx]
+        poses = np.array([m.pose for m in ms])
+        ranges = self.config.sonar.scan_batch([m.world for m in ms], poses,
+                                              np.array([m.t for m in ms]), self.rngs[0])
+        wp = np.array([m.waypoint() for m in ms])
+        return self.config.layout.build(ranges, wp[:, 0], wp[:, 1])
+
+    def step(self, actions: np.ndarray):
+        actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(self.n_envs), -1.0, 1.0)
+        rewards = np.empty(self.n_envs)
+        terminated = np.zeros(self.n_envs, dtype=bool)
+        truncated = np.zeros(self.n_envs, dtype=bool)
+        outcomes: list[str | None] = [None] * self.n_envs
+        for i, (m, a) in enumerate(zip(self.missions, actions)):
+            rewards[i], outcomes[i] = m.step(a)
+            terminated[i] = outcomes[i] in ("goal", "collision", "wander")
+            truncated[i] = outcomes[i] == "timeout"
+        obs = self._observe(range(self.n_envs))
+        infos: dict[str, Any] = {"outcome": outcomes}
+        done = np.flatnonzero(terminated | truncated)
+        if len(done):
+            infos["final_obs"] = {int(i): obs[i].copy() for i in done}
+            infos["final_info"] = {int(i): self.missions[i].info() for i in done}
+            for i in done:
+                self.missions[i] = Mission(_prepare(self.sampler, self.rngs[i], self.waypoint_fn), self.config)
+            obs[done] = self._observe(done)
+        return obs, rewards, terminated, truncated, infos
+
+
+def _register() -> None:
+    specs = {
+        "CageNav-v0": {"scenario": "cage"},
+        "CageNavMoving-v0": {"scenario": "cage_moving"},
+        "CageNavStudy2D-v0": {"scenario": "study2d"},
+    }
+    for env_id, kwargs in specs.items():
+        if env_id not in gym.registry:
+            gym.register(env_id, entry_point="cage_sim.env:CageNavEnv", kwargs=kwargs)
+    if "CageNavStudy1D-v0" not in gym.registry:
+        gym.register("CageNavStudy1D-v0", entry_point="cage_sim.env:Study1DEnv")
+
+
+_register()

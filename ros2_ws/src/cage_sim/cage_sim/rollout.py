@@ -1,0 +1,38 @@
+"""Run one episode of a policy in an env and keep what the evaluator and the plots need."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .controller import Policy
+from .env import CageNavEnv
+from .scenarios import Scenario
+
+
+@dataclass
+class Episode:
+    scenario: Scenario
+    outcome: str
+    steps: int
+    reward: float
+    travelled: float
+    route_length: float
+    track: list = field(default_factory=list)
+    min_clearance: float = float("inf")
+
+
+def run_episode(env: CageNavEnv, policy: Policy, seed: int | None = None,
+                scenario: Scenario | None = None) -> Episode:
+    """One seeded episode; the same seed gives the same scenario and the same outcome."""
+    obs, info = env.reset(seed=seed, options={"scenario": scenario} if scenario else None)
+    m = env.mission
+    total, min_clear = 0.0, m.world.clearance(m.x, m.y)
+    while True:
+        obs, r, term, trunc, info = env.step(policy.act(obs))
+        total += r
+        min_clear = min(min_clear, m.world.clearance(m.x, m.y, m.t))
+        if term or trunc:
+            break
+    return Episode(m.scenario, info["outcome"], info["steps"], total, info["travelled"],
+                   info["route_length"], list(m.track), min_clear)

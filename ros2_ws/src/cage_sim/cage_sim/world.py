@@ -1,0 +1,166 @@
+"""The sea-cage world: a circular net, known and unknown obstacles, moving obstacles and a current.
+
+One definition of the geometry that the simulator, the sonar, the planner's map and the gym
+environments all share. Pure NumPy/`math`, no ROS.
+
+Conventions: map frame ENU, metres, net centred on the origin. A square is axis-aligned and its
+``size`` is the side length; a circle's ``size`` is its radius. A moving obstacle oscillates about its
+centre: ``centre(t) = (x, y) + (ax, ay) * sin(2*pi*t/period)`` (a fish school drifting to and fro).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Iterable, Literal, Sequence
+
+import numpy as np
+
+Shape = Literal["square", "circle"]
+SHAPES: tuple[str, ...] = ("square", "circle")
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A square (side ``size``) or circle (radius ``size``), optionally oscillating in time."""
+
+    shape: Shape
+    x: float
+    y: float
+    size: float
+    ax: float = 0.0
+    ay: float = 0.0
+    period: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.shape not in SHAPES:
+            raise ValueError(f"obstacle shape must be one of {SHAPES}, got {self.shape!r}")
+        if not (self.size > 0 and math.isfinite(self.size)):
+            raise ValueError(f"obstacle size must be a positive number, got {self.size!r}")
+        if (self.ax or self.ay) and not self.period > 0:
+            raise ValueError("a moving obstacle needs a positive period")
+
+    @property
+    def moving(self) -> bool:
+        return bool(self.ax or self.ay)
+
+    @property
+    def bound(self) -> float:
+        """Radius of the circle around the centre that holds the obstacle (used for culling)."""
+        return self.size * (math.sqrt(0.5) if self.shape == "square" else 1.0)
+
+    def centre(self, t: float = 0.0) -> tuple[float, float]:
+        if not self.moving:
+            return self.x, self.y
+        s = math.sin(2.0 * math.pi * t / self.period)
+        return self.x + self.ax * s, self.y + self.ay * s
+
+    def distance(self, px: float, py: float, t: float = 0.0) -> float:
+        """Signed distance from a point to the obstacle's boundary (negative inside)."""
+        cx, cy = self.centre(t)
+        if self.shape == "circle":
+            return math.hypot(px - cx, py - cy) - self.size
+        h = 0.5 * self.size
+        dx, dy = abs(px - cx) - h, abs(py - cy) - h
+        outside = math.hypot(max(dx, 0.0), max(dy, 0.0))
+        return outside + min(max(dx, dy), 0.0)
+
+    def inflated(self, margin: float) -> "Obstacle":
+        """The same obstacle grown by ``margin`` (a square keeps its shape: conservative corners)."""
+        grow = 2.0 * margin if self.shape == "square" else margin
+        return replace(self, size=self.size + grow)
+
+
+@dataclass(frozen=True)
+class ObstacleArrays:
+    """Obstacle geometry at one instant as packed arrays, the form the sonar kernels take.
+
+    squares: (N, 3) rows of (cx, cy, half_side); circles: (M, 3) rows of (cx, cy, radius).
+    """
+
+    squares: np.ndarray
+    circles: np.ndarray
+
+
+def pack(obstacles: Iterable[Obstacle], t: float = 0.0) -> ObstacleArrays:
+    sq, ci = [], []
+    for ob in obstacles:
+        cx, cy = ob.centre(t)
+        if ob.shape == "square":
+            sq.append((cx, cy, 0.5 * ob.size))
+        else:
+            ci.append((cx, cy, ob.size))
+    return ObstacleArrays(np.asarray(sq, dtype=np.float64).reshape(-1, 3),
+                          np.asarray(ci, dtype=np.float64).reshape(-1, 3))
+
+
+@dataclass(frozen=True)
+class World:
+    """The cage: net circle, obstacles on the map (``known``), obstacles only the sonar sees
+    (``unknown``), a uniform water current (m/s, map frame) and the collision safety radius."""
+
+    net_radius: float = 30.0
+    known: tuple[Obstacle, ...] = ()
+    unknown: tuple[Obstacle, ...] = ()
+    current: tuple[float, float] = (0.0, 0.0)
+    safety_radius: float = 0.5
+    _static: ObstacleArrays | None = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not (self.net_radius > 0 and math.isfinite(self.net_radius)):
+            raise ValueError(f"net_radius must be a positive number, got {self.net_radius!r}")
+        if not self.safety_radius >= 0:
+            raise ValueError(f"safety_radius must be >= 0, got {self.safety_radius!r}")
+        object.__setattr__(self, "known", tuple(self.known))
+        object.__setattr__(self, "unknown", tuple(self.unknown))
+        object.__setattr__(self, "current", (float(self.current[0]), float(self.current[1])))
+        if not any(ob.moving for ob in self.obstacles):
+            object.__setattr__(self, "_static", pack(self.obstacles))
+
+    @property
+    def obstacles(self) -> tuple[Obstacle, ...]:
+        """Everything the sonar can see: known and unknown obstacles."""
+        return self.known + self.unknown
+
+    @property
+    def has_moving(self) -> bool:
+        return self._static is None
+
+    def arrays(self, t: float = 0.0) -> ObstacleArrays:
+        """All obstacles packed for the sonar at time ``t`` (cached when nothing moves)."""
+        return self._static if self._static is not None else pack(self.obstacles, t)
+
+    def known_map(self) -> "World":
+        """What the global planner may use: the net and the known obstacles only."""
+        return World(self.net_radius, self.known, (), self.current, self.safety_radius)
+
+    def clearance(self, x: float, y: float, t: float = 0.0) -> float:
+        """Distance from a point to the nearest boundary (net or obstacle); negative inside one."""
+        best = self.net_radius - math.hypot(x, y)
+        for ob in self.obstacles:
+            d = ob.distance(x, y, t)
+            if d < best:
+                best = d
+        return best
+
+    def in_collision(self, x: float, y: float, t: float = 0.0) -> bool:
+        """The study's collision test, with boundaries: closer than the safety radius to anything."""
+        return self.clearance(x, y, t) < self.safety_radius
+
+    def inside_net(self, x: float, y: float, margin: float = 0.0) -> bool:
+        return math.hypot(x, y) <= self.net_radius - margin
+
+
+def segment_clearance(world: World, points: Sequence[Sequence[float]], resolution: float = 0.1,
+                      t: float = 0.0) -> float:
+    """Smallest clearance along a polyline sampled every ``resolution`` metres (used by tests and
+    benchmarks to check a path against the world independently of any planner)."""
+    pts = np.asarray(points, dtype=float)
+    best = math.inf
+    for a, b in zip(pts[:-1], pts[1:]):
+        n = max(2, int(math.ceil(np.linalg.norm(b - a) / resolution)) + 1)
+        for s in np.linspace(0.0, 1.0, n):
+            p = a + s * (b - a)
+            best = min(best, world.clearance(float(p[0]), float(p[1]), t))
+    if len(pts) == 1:
+        best = world.clearance(float(pts[0][0]), float(pts[0][1]), t)
+    return best

@@ -1,0 +1,31 @@
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'cage_sim'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    package_data={package_name: ['scenarios/*.yaml']},
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='cage planner maintainers',
+    maintainer_email='cage-planner@example.org',
+    description='Sea-cage AUV simulation core and nodes',
+    license='Apache-2.0',
+    extras_require={'test': ['pytest']},
+    entry_points={
+        'console_scripts': [
+            'sim_node = cage_sim.sim_node:main',
+            'vehicle_node = cage_sim.vehicle_node:main',
+            'cage_demo = cage_sim.demo:main',
+        ],
+    },
+)

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Creates .venv/ in the repo root and installs the pinned dependencies and the project's packages.
+# Idempotent and quick once done (a stamp of the inputs' hash skips reinstalling). The no-ROS runtime
+# (runtime/) is installed only where no real rclpy is importable, so it never shadows ROS 2.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+py=${PYTHON:-python3}
+if [ ! -x .venv/bin/python ]; then
+  echo "[setup] creating .venv with $($py --version)"
+  "$py" -m venv .venv
+fi
+vpy=.venv/bin/python
+stamp=.venv/.cage_setup_stamp
+want=$(cat requirements.txt ros2_ws/src/*/setup.py ros2_ws/src/*/package.xml runtime/pyproject.toml 2>/dev/null | sha256sum | cut -d' ' -f1)
+if [ "$(cat "$stamp" 2>/dev/null)" = "$want" ]; then
+  exit 0
+fi
+echo "[setup] installing pinned dependencies into .venv (first run takes about a minute)"
+"$vpy" -m pip install -q --disable-pip-version-check -r requirements.txt
+pkgs=()
+for p in cage_sim cage_global_rrt cage_reactive_ddpg; do
+  [ -f "ros2_ws/src/$p/setup.py" ] && pkgs+=(-e "ros2_ws/src/$p")
+done
+"$vpy" -m pip install -q --disable-pip-version-check --no-deps "${pkgs[@]}"
+origin=$("$vpy" -c 'import rclpy; print(rclpy.__file__)' 2>/dev/null || true)
+if [ -f runtime/pyproject.toml ] && { [ -z "$origin" ] || [[ "$origin" == "$root/runtime/"* ]]; }; then
+  echo "[setup] no real rclpy found: installing the project's rclpy-compatible runtime (runtime/)"
+  "$vpy" -m pip install -q --disable-pip-version-check --no-deps -e runtime
+else
+  echo "[setup] using the real rclpy at ${origin}"
+fi
+echo "$want" > "$stamp"
+echo "[setup] done"
