@@ -19,7 +19,8 @@ import numpy as np
 from .observation import ObservationLayout
 from .scenarios import Scenario
 from .sonar import SonarModel
-from .vehicle import VehicleParams, decision_step, wrap_angle
+from .route import RouteTracker
+from .vehicle import VehicleParams, decision_step
 
 OUTCOMES = ("goal", "collision", "wander", "timeout")
 
@@ -69,77 +70,59 @@ def _segment_distance(ax: float, ay: float, bx: float, by: float, px: float, py:
 
 
 class Mission:
-    """Follows a scenario's route decision by decision; call ``step(action)``, read ``waypoint()``."""
+    """Judges one mission decision by decision.
+
+    ``step(action)`` moves the vehicle with the vehicle model (the env); ``record(x, y, yaw)`` judges
+    a pose that arrived from elsewhere (the simulator node, from the vehicle node's odometry at a
+    decision boundary). Both go through the same checks, so the graph and the env agree.
+    """
 
     def __init__(self, scenario: Scenario, config: EnvConfig):
         self.scenario, self.config = scenario, config
         self.world = scenario.world
         self.x, self.y, self.yaw = (float(v) for v in scenario.start)
-        self.route = scenario.route()
-        self.index = 0
-        self.prev = np.array(scenario.start[:2], dtype=float)
+        self.tracker = RouteTracker(scenario.start, scenario.route(), config.waypoint_radius)
+        self.route = self.tracker.route
+        self.route_length = self.tracker.length
         self.steps = 0
         self.t = 0.0
         self.outcome: str | None = None
-        pts = np.vstack([self.prev, self.route])
-        self.seg_lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        self.route_length = float(self.seg_lengths.sum())
         self.max_steps = int(math.ceil(config.max_steps_factor * self.route_length)) + config.max_steps_extra
         self.travelled = 0.0
         self.track = [(self.x, self.y, self.yaw)]
-        self._advance_waypoints()
-        self.remaining = self.remaining_route()
+        self.tracker.advance(self.x, self.y)
+        self.remaining = self.tracker.remaining(self.x, self.y)
 
-    # --- geometry -----------------------------------------------------------------------
+    @property
+    def index(self) -> int:
+        return self.tracker.index
+
     def waypoint(self) -> tuple[float, float]:
         """Distance (m) and body-frame heading error (rad, left positive) to the current waypoint."""
-        wx, wy = self.route[self.index]
-        dx, dy = wx - self.x, wy - self.y
-        return math.hypot(dx, dy), wrap_angle(math.atan2(dy, dx) - self.yaw)
+        return self.tracker.waypoint(self.x, self.y, self.yaw)
 
-    def remaining_route(self) -> float:
-        wx, wy = self.route[self.index]
-        return math.hypot(wx - self.x, wy - self.y) + float(self.seg_lengths[self.index + 1:].sum())
-
-    def segment_offset(self) -> float:
-        """Distance from the vehicle to the current route segment (prev waypoint -> waypoint)."""
-        a, b = self.prev, self.route[self.index]
-        ab = b - a
-        n2 = float(ab @ ab)
-        s = 0.0 if n2 == 0 else min(1.0, max(0.0, float((np.array([self.x, self.y]) - a) @ ab) / n2))
-        return math.hypot(self.x - a[0] - s * ab[0], self.y - a[1] - s * ab[1])
-
-    def _advance_waypoints(self) -> None:
-        last = len(self.route) - 1
-        while self.index < last:
-            a, b = self.prev, self.route[self.index]
-            ab = b - a
-            n2 = float(ab @ ab)
-            passed = n2 > 0 and float((np.array([self.x, self.y]) - a) @ ab) / n2 >= 1.0
-            if math.hypot(b[0] - self.x, b[1] - self.y) < self.config.waypoint_radius or passed:
-                self.prev = b.copy()
-                self.index += 1
-            else:
-                break
-
-    # --- dynamics -----------------------------------------------------------------------
     def step(self, action: float) -> tuple[float, str | None]:
-        """Apply one decision; return (reward, outcome or None)."""
+        """Apply one decision with the vehicle model; return (reward, outcome or None)."""
+        x, y, yaw = decision_step(self.x, self.y, self.yaw, float(action), self.config.vehicle,
+                                  self.world.current, self.config.motion)
+        return self.record(x, y, yaw)
+
+    def record(self, x: float, y: float, yaw: float) -> tuple[float, str | None]:
+        """Judge the pose reached at the end of the next decision; return (reward, outcome or None)."""
         cfg, rw = self.config, self.config.reward
         x0, y0 = self.x, self.y
-        self.x, self.y, self.yaw = decision_step(self.x, self.y, self.yaw, float(action), cfg.vehicle,
-                                                 self.world.current, cfg.motion)
+        self.x, self.y, self.yaw = float(x), float(y), float(yaw)
         self.steps += 1
-        self.t += cfg.vehicle.decision_period
+        self.t = self.steps * cfg.vehicle.decision_period
         self.travelled += math.hypot(self.x - x0, self.y - y0)
         self.track.append((self.x, self.y, self.yaw))
-        self._advance_waypoints()
+        self.tracker.advance(self.x, self.y)
         mid = (0.5 * (x0 + self.x), 0.5 * (y0 + self.y))
         clearance = min(self.world.clearance(self.x, self.y, self.t),
                         self.world.clearance(*mid, self.t - 0.5 * cfg.vehicle.decision_period))
 
         dist, err = self.waypoint()
-        remaining = self.remaining_route()
+        remaining = self.tracker.remaining(self.x, self.y)
         reward = (rw.distance_weight * (1.0 - remaining / max(self.route_length, 1e-6))
                   + rw.heading_weight * (1.0 - abs(err) / math.pi)
                   + rw.progress_weight * (self.remaining - remaining))
@@ -151,10 +134,10 @@ class Mission:
 
         if clearance < self.world.safety_radius:
             self.outcome, reward = "collision", reward + rw.collision
-        elif self.index == len(self.route) - 1 and _segment_distance(x0, y0, self.x, self.y,
-                                                                     *self.route[-1]) < cfg.goal_radius:
+        elif self.tracker.at_last and _segment_distance(x0, y0, self.x, self.y,
+                                                        *self.route[-1]) < cfg.goal_radius:
             self.outcome, reward = "goal", reward + rw.goal
-        elif self.segment_offset() > cfg.wander_distance:
+        elif self.tracker.segment_offset(self.x, self.y) > cfg.wander_distance:
             self.outcome, reward = "wander", reward + rw.wander
         elif self.steps >= self.max_steps:
             self.outcome = "timeout"
