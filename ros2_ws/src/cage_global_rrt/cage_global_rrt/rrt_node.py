@@ -1,0 +1,151 @@
+"""rrt_node: the ROS 2 adapter over the planning core (``GlobalPlanner``).
+
+Subscribes: /cage/map (cage_planner_msgs/CageMap, latched), /cage/odom (nav_msgs/Odometry),
+/goal_pose (geometry_msgs/PoseStamped, RViz's goal tool), /cage/mission_event
+(cage_planner_msgs/MissionEvent; REPLAN_REQUESTED replans to the last goal from the current pose).
+Publishes, latched: /cage/plan (nav_msgs/Path in ``frame_id``) and /cage/planner_status
+(cage_planner_msgs/PlannerStatus) once per request, SUCCESS or the failure code. A failed request
+publishes an empty Path, so nobody keeps following a plan made for another goal.
+
+Bad parameters stop the node at start with one clear message; bad input in a callback is logged
+and published as a status, never raised.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from cage_planner_msgs.msg import CageMap, MissionEvent, PlannerStatus
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry, Path
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from cage_sim.node_runner import run_node
+from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw
+
+from .known_map import KnownMap
+from .options import NODE_PARAMETERS, InvalidParameters, options_from_parameters
+from .planner import GlobalPlanner, PlanResult
+from .status import PlanStatus
+
+LATCHED = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+class RrtNode(Node):
+    def __init__(self) -> None:
+        super().__init__("rrt_node")
+        values = {name: self.declare_parameter(name, default).value for name, default in NODE_PARAMETERS.items()}
+        self.frame_id = str(values["frame_id"])
+        if not self.frame_id:
+            raise InvalidParameters("parameter frame_id must not be empty")
+        self.planner = GlobalPlanner(options=options_from_parameters(values))
+        self.pose: tuple[float, float, float] | None = None
+        self.goal: tuple[float, ...] | None = None
+        self.waiting_for_map = False
+        self.plan_pub = self.create_publisher(Path, "/cage/plan", LATCHED)
+        self.status_pub = self.create_publisher(PlannerStatus, "/cage/planner_status", LATCHED)
+        self.create_subscription(CageMap, "/cage/map", self._guard(self.on_map), LATCHED)
+        self.create_subscription(Odometry, "/cage/odom", self._guard(self.on_odom, report=False), 10)
+        self.create_subscription(PoseStamped, "/goal_pose", self._guard(self.on_goal), 10)
+        self.create_subscription(MissionEvent, "/cage/mission_event", self._guard(self.on_event), 10)
+        o = self.planner.options
+        self.get_logger().info(f"rrt_node ready: {o.planner}, step {o.max_step} m, clearance {o.clearance} m, "
+                               f"dubins {o.dubins}, frame {self.frame_id}")
+
+    # ------------------------------------------------------------------ callbacks
+
+    def _guard(self, callback, report: bool = True):
+        """Run a callback so that no exception escapes into the executor: log it and (for requests
+        and maps, not for the odometry stream) publish it as an INVALID_INPUT status."""
+        def guarded(msg) -> None:
+            try:
+                callback(msg)
+            except Exception as err:  # noqa: BLE001 - a callback must never raise
+                self.get_logger().error(f"{callback.__name__}: {type(err).__name__}: {err}")
+                if report:
+                    self.publish(PlanResult(PlanStatus.INVALID_INPUT, f"{callback.__name__}: {err}"),
+                                 clear_plan=False)
+        return guarded
+
+    def on_map(self, msg) -> None:
+        try:
+            known = KnownMap.from_world(map_to_world(msg))
+        except ValueError as err:
+            self.get_logger().error(f"map rejected: {err}")
+            self.publish(PlanResult(PlanStatus.INVALID_INPUT, f"map rejected: {err}"), clear_plan=False)
+            return
+        self.planner.set_map(known)
+        self.planner.prepare()  # build the OMPL setup now, not in the first request
+        self.get_logger().info(f"map: net {known.net_radius:g} m, {len(known.squares) + len(known.circles)} obstacles")
+        if self.waiting_for_map and self.goal is not None:
+            self.request()
+
+    def on_odom(self, msg) -> None:
+        pose = odom_pose(msg)
+        if all(math.isfinite(v) for v in pose):
+            self.pose = pose
+
+    def on_goal(self, msg) -> None:
+        frame = msg.header.frame_id
+        if frame and frame != self.frame_id:
+            self.publish(PlanResult(PlanStatus.INVALID_INPUT, f"goal in frame {frame!r}, expected {self.frame_id!r}"))
+            return
+        p, q = msg.pose.position, msg.pose.orientation
+        has_yaw = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w) > 1e-12
+        self.goal = (p.x, p.y, quaternion_to_yaw(q)) if has_yaw else (p.x, p.y)
+        self.request()
+
+    def on_event(self, msg) -> None:
+        if msg.event != MissionEvent.REPLAN_REQUESTED:
+            return
+        if self.goal is None:
+            self.get_logger().warn("replan requested before any goal; ignored")
+            return
+        self.request()
+
+    # ------------------------------------------------------------------ planning
+
+    def request(self) -> None:
+        """Plan from the current pose to the last goal and publish the outcome."""
+        self.waiting_for_map = self.planner.kmap is None
+        if self.planner.kmap is None:
+            result = PlanResult(PlanStatus.NO_MAP, "no map received on /cage/map yet")
+        elif self.pose is None:
+            result = PlanResult(PlanStatus.NO_POSE, "no pose received on /cage/odom yet")
+        else:
+            # R^2 plans ignore headings; Dubins plans start at the vehicle's heading
+            result = self.planner.plan(self.pose, self.goal)
+        self.publish(result)
+
+    def publish(self, result: PlanResult, clear_plan: bool = True) -> None:
+        """Status always; the path on success, an empty path on a failed request (``clear_plan``)."""
+        ns = self.get_clock().now().nanoseconds
+        if result.ok:
+            pts = np.column_stack((result.waypoints, result.headings))
+            self.plan_pub.publish(path_msg(pts, ns, self.frame_id))
+        elif clear_plan:
+            self.plan_pub.publish(path_msg([], ns, self.frame_id))
+        status = status_msg(result, ns, self.frame_id)
+        self.status_pub.publish(status)
+        log = self.get_logger().info if result.ok else self.get_logger().warn
+        log(f"plan {result.status.name}: {result.message} ({result.planning_time * 1e3:.2f} ms)")
+
+
+def status_msg(result: PlanResult, ns: int, frame_id: str) -> PlannerStatus:
+    msg = PlannerStatus()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = int(ns // 1_000_000_000), int(ns % 1_000_000_000)
+    msg.header.frame_id = frame_id
+    msg.code = int(result.status)
+    msg.message = result.message
+    msg.planning_time = float(result.planning_time)
+    msg.n_waypoints = int(len(result.waypoints))
+    return msg
+
+
+def main(args=None) -> None:
+    run_node(RrtNode, args)
+
+
+if __name__ == "__main__":
+    main()
