@@ -11,7 +11,6 @@ Observation: ``EnvConfig.layout`` (see observation.py). Action: Box[-1, 1] scale
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Callable, Sequence
 
 import gymnasium as gym

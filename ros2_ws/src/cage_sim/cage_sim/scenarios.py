@@ -9,7 +9,7 @@ and impossible geometry with a message that names the field.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -326,3 +326,9 @@ def scenario_sampler(spec: "str | Path | Scenario | Sampler") -> Sampler:
         sc = load_scenario(path)
         return lambda rng: sc
     raise ScenarioError(f"scenario: {spec!r} is neither a known name ({', '.join(SCENARIOS)}) nor a YAML file")
+
+
+def draw_scenario(spec: "str | Path | Scenario | Sampler", seed: int = 0) -> Scenario:
+    """The scenario ``CageNavEnv(spec).reset(seed=seed)`` starts from (Gymnasium seeds its generator
+    as ``np.random.default_rng(seed)``), so a node given the same name and seed runs the same mission."""
+    return scenario_sampler(spec)(np.random.default_rng(seed))
