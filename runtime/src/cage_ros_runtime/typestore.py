@@ -1,0 +1,92 @@
+"""The one type store of the runtime: rosbags' ROS 2 Jazzy interfaces plus the project's `.msg` files.
+
+Why rosbags: it carries the Jazzy standard interfaces verbatim, computes the RIHS01 type hashes that Jazzy
+puts into USER_DATA, and serializes classic CDR independently of Cyclone DDS.  The project's own interfaces
+(`cage_planner_msgs`) are parsed from their `.msg` files at run time so that the files in `ros2_ws/src` stay
+the single source of truth for both worlds (colcon/rosidl on ROS 2, this module here).
+
+Where `.msg` files are looked for, first hit per package wins:
+1. ``CAGE_MSG_PATH`` (os.pathsep-separated): each entry is a package directory holding ``msg/*.msg``
+   (its base name is the package name), or a directory of such package directories.
+2. ``<sys.prefix>/share/<pkg>/msg`` for every package directory under ``<sys.prefix>/share``
+   that holds ``.msg`` files (what an installed ament package leaves behind).
+3. The source tree this runtime was installed from: ``<repo>/ros2_ws/src/<pkg>/msg``.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+from pathlib import Path
+
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+#: Repository root when running from the source tree (runtime/src/cage_ros_runtime/typestore.py).
+_REPO_ROOT = Path(__file__).resolve().parents[3]
+
+
+def _package_dirs_under(root: Path) -> list[Path]:
+    """Package directories below `root` (or `root` itself) that hold a `msg/` folder with `.msg` files."""
+    if not root.is_dir():
+        return []
+    if (root / 'msg').is_dir():
+        return [root]
+    return sorted(p for p in root.iterdir() if (p / 'msg').is_dir() and any((p / 'msg').glob('*.msg')))
+
+
+def msg_package_dirs() -> dict[str, Path]:
+    """Map package name -> package directory for every project interface package that can be found."""
+    roots: list[Path] = []
+    for entry in os.environ.get('CAGE_MSG_PATH', '').split(os.pathsep):
+        if entry:
+            roots.append(Path(entry))
+    roots.append(Path(sys.prefix) / 'share')
+    roots.append(_REPO_ROOT / 'ros2_ws' / 'src')
+    found: dict[str, Path] = {}
+    for root in roots:
+        for pkg_dir in _package_dirs_under(root):
+            found.setdefault(pkg_dir.name, pkg_dir)
+    return found
+
+
+@functools.lru_cache(maxsize=1)
+def typestore() -> Typestore:
+    """The process-wide type store (built once; registering types is not thread-safe in rosbags)."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    extra: dict = {}
+    for pkg, pkg_dir in msg_package_dirs().items():
+        for msg_file in sorted((pkg_dir / 'msg').glob('*.msg')):
+            name = f'{pkg}/msg/{msg_file.stem}'
+            if name in store.fielddefs:
+                continue  # never redefine a standard interface
+            extra.update(get_types_from_msg(msg_file.read_text(encoding='utf-8'), name))
+    if extra:
+        store.register(extra)
+    return store
+
+
+def packages() -> set[str]:
+    """All interface packages known to the type store."""
+    return {name.split('/', 1)[0] for name in typestore().fielddefs}
+
+
+def dds_type_name(ros_type: str) -> str:
+    """`sensor_msgs/msg/LaserScan` -> `sensor_msgs::msg::dds_::LaserScan_` (rmw_cyclonedds naming)."""
+    pkg, kind, name = ros_type.split('/')
+    return f'{pkg}::{kind}::dds_::{name}_'
+
+
+def ros_type_name(dds_name: str) -> str | None:
+    """Inverse of :func:`dds_type_name`; None for names that are not ROS-mangled."""
+    parts = dds_name.split('::')
+    if len(parts) != 4 or parts[2] != 'dds_' or not parts[3].endswith('_'):
+        return None
+    return f'{parts[0]}/{parts[1]}/{parts[3][:-1]}'
+
+
+@functools.lru_cache(maxsize=None)
+def type_hash(ros_type: str) -> str:
+    """RIHS01 hash of a type, as Jazzy advertises it in endpoint USER_DATA."""
+    return typestore().hash_rihs01(ros_type)

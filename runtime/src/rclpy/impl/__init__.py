@@ -1,0 +1,1 @@
+"""Implementation details of the runtime's rclpy (named as in rclpy)."""
