@@ -1,0 +1,101 @@
+"""Whole-graph missions: the launch-free script, graph-vs-offline agreement, recording, start order."""
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+
+import pytest
+
+from cage_global_rrt.routes import RoutePlanner
+from cage_sim.controller import ArcController
+from cage_sim.env import CageNavEnv
+from cage_sim.rollout import run_episode
+
+from conftest import ROOT
+
+SCRIPT = ROOT / "scripts" / "run_mission.sh"
+
+
+def run_script(env, *args, timeout=240) -> tuple[int, dict | None, str]:
+    proc = subprocess.run(["bash", str(SCRIPT), *args], env=env, cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout)
+    result = None
+    for line in proc.stdout.splitlines():
+        if line.startswith("RESULT "):
+            result = json.loads(line[len("RESULT "):])
+    return proc.returncode, result, proc.stdout + proc.stderr
+
+
+def offline(policy, scenario="full_cage", seed=0):
+    env = CageNavEnv(scenario, waypoint_fn=RoutePlanner())
+    return run_episode(env, policy, seed=seed)
+
+
+def shipped_policy():
+    from cage_reactive_ddpg.policy import load_policy
+    return load_policy()
+
+
+@pytest.mark.parametrize("policy", ["shipped", "baseline"])
+def test_full_cage_mission_in_the_graph_ends_as_offline(ros_env, tmp_path, policy):
+    args = ["--out", str(tmp_path), "--timeout", "150"] + (["--policy", "baseline"] if policy == "baseline" else [])
+    rc, result, log = run_script(ros_env, *args)
+    assert result is not None, log
+    ep = offline(ArcController() if policy == "baseline" else shipped_policy())
+    assert ep.outcome == "goal"
+    assert rc == 0 and result["outcome"] == "goal", log
+    assert result["steps"] == ep.steps
+    assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
+    assert (tmp_path / "mission_track.png").stat().st_size > 10_000
+
+
+def test_mission_can_be_recorded_to_mcap(ros_env, tmp_path):
+    bag = tmp_path / "bag"
+    rc, result, log = run_script(ros_env, "--out", str(tmp_path), "--policy", "baseline", "--record", str(bag),
+                                 "--scenario", "study2d", "--seed", "3")
+    assert rc == 0, log
+    mcaps = list(bag.glob("*.mcap"))
+    assert len(mcaps) == 1 and (bag / "metadata.yaml").is_file()
+
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+    from cage_sim.recording import typestore_with
+    store = typestore_with([ROOT / "ros2_ws/src/cage_planner_msgs/msg"])
+    with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        scans = [c for c in reader.connections if c.topic == "/cage/scan"]
+        _, _, raw = next(reader.messages(connections=scans))
+        scan = reader.deserialize(raw, scans[0].msgtype)
+    assert len(scan.ranges) == 72
+    assert counts["/cage/scan"] > result["steps"] and counts["/cage/heading_setpoint"] >= result["steps"]
+    assert counts["/cage/map"] == 1 and counts["/cage/mission_event"] >= 1
+
+    from mcap_ros2.reader import read_ros2_messages
+    seen = {}
+    for m in read_ros2_messages(str(mcaps[0]), topics=["/cage/map", "/cage/mission_event"]):
+        seen.setdefault(m.channel.topic, m.ros_msg)
+    assert seen["/cage/map"].net_radius == 30.0
+    assert seen["/cage/mission_event"].event in (2, 3, 4, 5)
+    assert store is not None
+
+
+def test_start_order_does_not_matter(launch, ros_env, tmp_path):
+    """Client and policy first, the world last: latched topics and re-sent goals still bring it together."""
+    shared = ["--params-file", str(ROOT / "ros2_ws/src/cage_sim/config/graph.yaml"), "-p", "scenario:=study2d",
+              "-p", "seed:=5", "-p", "time_scale:=50.0"]
+    client = launch("cage_sim", "mission_client", *shared, "-p", "timeout:=90.0", "-p", f"png:={tmp_path}/t.png")
+    launch("cage_reactive_ddpg", "policy_node", *shared, "-p", "policy:=baseline")
+    time.sleep(2.0)
+    launch("cage_global_rrt", "rrt_node", "--params-file", str(ROOT / "ros2_ws/src/cage_global_rrt/config/rrt.yaml"),
+           *shared)
+    time.sleep(1.0)
+    launch("cage_sim", "sim_node", *shared)
+    time.sleep(1.0)
+    launch("cage_sim", "vehicle_node", *shared)
+    rc = client.proc.wait(timeout=120)
+    out = client.output
+    assert rc == 0 and "outcome: goal" in out, out
+    ep = offline(ArcController(), "study2d", 5)
+    result = json.loads(out.split("RESULT ", 1)[1].splitlines()[0])
+    assert result["steps"] == ep.steps
