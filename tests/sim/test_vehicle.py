@@ -50,7 +50,7 @@ def test_integration_in_small_steps_equals_one_decision(dt):
     current = (0.07, -0.03)
     sp = 0.4 + math.radians(-17)
     one = propagate(1.0, 2.0, 0.4, sp, 1.0, current=current)
-    x, y, yaw, t = 1.0, 2.0, 0.4, 0.0
+    x, y, yaw = 1.0, 2.0, 0.4
     n = int(round(1.0 / dt))
     for _ in range(n):
         x, y, yaw = propagate(x, y, yaw, sp, 1.0 / n, current=current)
