@@ -31,7 +31,7 @@ if ! command -v ros2 >/dev/null 2>&1 && [ -x "$root/.venv/bin/ros2" ]; then
   export PATH="$root/.venv/bin:$PATH"
 fi
 command -v ros2 >/dev/null || { echo "run_mission.sh: no ros2 command (run scripts/setup.sh, or source ROS 2)" >&2; exit 69; }
-export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( (($$ + RANDOM) % 200) + 10 ))}
+export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( (($$ + RANDOM) % 90) + 10 ))}  # 10..99: clear of ephemeral ports
 export PYTHONUNBUFFERED=1 MPLBACKEND=Agg
 logs="$out/logs"
 mkdir -p "$logs"

@@ -13,6 +13,8 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/rviz', glob('config/rviz/*.rviz')),
+        ('share/' + package_name + '/config/foxglove', glob('config/foxglove/*.json')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

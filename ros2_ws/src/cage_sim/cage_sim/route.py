@@ -48,10 +48,12 @@ class RouteTracker:
         return self.index != start
 
     def _fraction(self, x: float, y: float) -> float:
+        """How far along the current segment (x, y) projects: 0 at its start, 1 at its end. A
+        zero-length segment (a waypoint on top of the previous one) counts as passed."""
         a, b = self.prev, self.route[self.index]
         ab = b - a
         n2 = float(ab @ ab)
-        return 0.0 if n2 == 0 else float((x - a[0]) * ab[0] + (y - a[1]) * ab[1]) / n2
+        return math.inf if n2 == 0 else float((x - a[0]) * ab[0] + (y - a[1]) * ab[1]) / n2
 
     def waypoint(self, x: float, y: float, yaw: float) -> tuple[float, float]:
         """Distance (m) and body-frame heading error (rad, left positive) to the current waypoint."""

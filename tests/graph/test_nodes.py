@@ -1,0 +1,160 @@
+"""Single nodes against a probe: failsafes, stale data, bad parameters and files, planner answers."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from cage_planner_msgs.msg import HeadingSetpoint, MissionEvent, PlannerStatus
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry, Path
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+
+from cage_sim.ros_convert import odom_pose, path_msg, scan_msg, time_msg, world_to_map, yaw_to_quaternion
+from cage_sim.scenarios import builtin_file
+from cage_sim.sonar import SonarModel
+from cage_sim.vehicle import propagate
+
+from conftest import ROOT, wait_for
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def odom(x, y, yaw, t_ns) -> Odometry:
+    m = Odometry()
+    m.header.stamp, m.header.frame_id = time_msg(t_ns), "map"
+    m.pose.pose.position.x, m.pose.pose.position.y = x, y
+    m.pose.pose.orientation = yaw_to_quaternion(yaw)
+    return m
+
+
+def connected(probe, pub, timeout=15.0) -> bool:
+    return probe.until(lambda: pub.get_subscription_count() > 0, timeout)
+
+
+def test_policy_node_failsafe_on_invalid_and_wrong_size_scans(launch, probe):
+    setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
+    events = probe.listen(MissionEvent, "/cage/mission_event")
+    plan_pub = probe.node.create_publisher(Path, "/cage/plan", LATCHED)
+    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
+    scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
+    node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline")
+    assert connected(probe, scan_pub), node.output
+    plan_pub.publish(path_msg([(0.0, 0.0), (20.0, 0.0)], 0))
+    sonar = SonarModel()
+    assert probe.until(lambda: "following a plan" in node.output, 10), node.output
+
+    def decision(t_s, ranges):
+        odom_pub.publish(odom(float(t_s), 0.0, 0.0, int(t_s * 1e9)))
+        probe.until(lambda: False, 0.2)
+        scan_pub.publish(scan_msg(ranges, sonar, int(t_s * 1e9)))
+        n = len(setpoints)
+        return probe.until(lambda: len(setpoints) > n, 5)
+
+    assert decision(0, [float("nan")] * 72), node.output
+    sp = setpoints[-1]
+    assert sp.source == HeadingSetpoint.SOURCE_FAILSAFE and sp.speed == 0.0
+    assert probe.until(lambda: any(e.event == MissionEvent.FAILSAFE for e in events), 5)
+    assert "invalid" in events[-1].detail
+
+    assert decision(1, [10.0] * 36)                      # a scan of the wrong size
+    assert setpoints[-1].source == HeadingSetpoint.SOURCE_FAILSAFE
+    assert probe.until(lambda: "36 ranges" in events[-1].detail, 5)   # (the log line is throttled)
+
+    assert decision(2, [math.inf] * 70 + [float("nan")] * 2)   # a few NaN: read as no return, a real decision
+    sp = setpoints[-1]
+    assert sp.source == HeadingSetpoint.SOURCE_BASELINE and sp.speed == 1.0 and sp.decision == 2
+    assert abs(sp.heading) < 1e-6                        # open water, waypoint dead ahead
+    assert "Traceback" not in node.output
+
+
+def test_policy_node_refuses_mismatched_weights(launch, tmp_path):
+    from cage_reactive_ddpg.policy import shipped_path
+    import json, shutil
+    w = shipped_path()
+    bad = tmp_path / "policy.safetensors"
+    shutil.copy(w, bad)
+    meta = json.loads(w.with_suffix(".json").read_text())
+    meta["observation_layout"]["n_beams"] = 36
+    bad.with_suffix(".json").write_text(json.dumps(meta))
+    node = launch("cage_reactive_ddpg", "policy_node", "-p", f"policy:={bad}")
+    assert node.proc.wait(timeout=30) == 2
+    assert "n_beams" in node.output and "Traceback" not in node.output
+
+
+def test_vehicle_holds_station_when_setpoints_go_stale(launch, probe):
+    odoms = probe.listen(Odometry, "/cage/odom")
+    events = probe.listen(MissionEvent, "/cage/mission_event")
+    sp_pub = probe.node.create_publisher(HeadingSetpoint, "/cage/heading_setpoint", 10)
+    node = launch("cage_sim", "vehicle_node", "-p", "scenario:=study2d", "-p", "seed:=1",
+                  "-p", "setpoint_timeout:=0.5", "-p", "time_scale:=10.0")
+    assert probe.until(lambda: len(odoms) > 0 and sp_pub.get_subscription_count() > 0, 15), node.output
+    sp = HeadingSetpoint(heading=0.3, speed=1.0, decision=0)
+    sp.header.stamp = time_msg(0)
+    sp_pub.publish(sp)
+    assert probe.until(lambda: any(e.event == MissionEvent.FAILSAFE for e in events), 10), node.output
+    last = [o for o in odoms if o.header.stamp.sec == 1 and o.header.stamp.nanosec == 0]
+    assert last, "the vehicle stops at the next decision boundary"
+    x0, y0, yaw0 = odom_pose(odoms[0])
+    expected = propagate(x0, y0, yaw0, 0.3, 1.0)          # one decision of the continuous model
+    assert odom_pose(last[-1]) == pytest.approx(expected, abs=1e-9)
+    n = len(odoms)
+    probe.until(lambda: False, 0.5)
+    assert all(o.header.stamp.sec <= 1 for o in odoms[n:]), "the clock stands while waiting"
+    assert "no setpoint" in events[-1].detail
+
+
+def test_rrt_node_plans_and_reports_failures(launch, probe):
+    sc = builtin_file("full_cage.yaml")
+    paths = probe.listen(Path, "/cage/plan", LATCHED)
+    statuses = probe.listen(PlannerStatus, "/cage/planner_status", LATCHED)
+    map_pub = probe.node.create_publisher(type(world_to_map(sc.world, 0)), "/cage/map", LATCHED)
+    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
+    goal_pub = probe.node.create_publisher(PoseStamped, "/goal_pose", 10)
+    node = launch("cage_global_rrt", "rrt_node", "--params-file", str(ROOT / "ros2_ws/src/cage_global_rrt/config/rrt.yaml"))
+    map_pub.publish(world_to_map(sc.world, 0))
+    assert connected(probe, goal_pub), node.output
+
+    def ask(x, y):
+        odom_pub.publish(odom(*sc.start, 0))
+        probe.until(lambda: False, 0.3)
+        g = PoseStamped()
+        g.header.frame_id = "map"
+        g.pose.position.x, g.pose.position.y = x, y
+        n = len(statuses)
+        goal_pub.publish(g)
+        assert probe.until(lambda: len(statuses) > n, 10), node.output
+        return statuses[-1]
+
+    st = ask(*sc.goal)
+    assert st.code == PlannerStatus.SUCCESS and st.n_waypoints > 2
+    assert probe.until(lambda: len(paths) > 0 and len(paths[-1].poses) == st.n_waypoints, 5)
+    last = paths[-1].poses[-1].pose.position
+    assert (last.x, last.y) == pytest.approx(sc.goal)
+
+    ob = sc.world.known[0]
+    assert ask(ob.x, ob.y).code == PlannerStatus.GOAL_OCCUPIED
+    assert ask(45.0, 0.0).code == PlannerStatus.GOAL_OUTSIDE_NET
+    assert probe.until(lambda: len(paths[-1].poses) == 0, 5), "a failed request clears the plan"
+
+
+def test_sim_node_rejects_a_bad_scenario_file(launch, tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("start: [0.0, 0.0, 0.0]\ngoal: [50.0, 0.0]\n")
+    node = launch("cage_sim", "sim_node", "-p", f"scenario:={bad}")
+    assert node.proc.wait(timeout=30) == 2
+    assert "goal:" in node.output and "outside the net" in node.output and "Traceback" not in node.output
+
+
+def test_sim_node_publishes_map_and_scans(launch, probe):
+    maps = probe.listen(type(world_to_map(builtin_file("full_cage.yaml").world, 0)), "/cage/map", LATCHED)
+    scans = probe.listen(LaserScan, "/cage/scan", qos_profile_sensor_data)
+    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
+    node = launch("cage_sim", "sim_node")
+    assert probe.until(lambda: len(maps) == 1, 15), node.output
+    assert maps[0].net_radius == 30.0 and len(maps[0].obstacles) == 20
+    assert connected(probe, odom_pub)
+    odom_pub.publish(odom(0.0, 0.0, 0.0, 0))
+    assert probe.until(lambda: len(scans) > 0, 5)
+    s = scans[0]
+    assert len(s.ranges) == 72 and s.range_max == 20.0 and s.header.frame_id == "base_link"
