@@ -60,8 +60,6 @@ def test_mission_can_be_recorded_to_mcap(ros_env, tmp_path):
 
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
-    from cage_sim.recording import typestore_with
-    store = typestore_with([ROOT / "ros2_ws/src/cage_planner_msgs/msg"])
     with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         scans = [c for c in reader.connections if c.topic == "/cage/scan"]
@@ -71,13 +69,15 @@ def test_mission_can_be_recorded_to_mcap(ros_env, tmp_path):
     assert counts["/cage/scan"] > result["steps"] and counts["/cage/heading_setpoint"] >= result["steps"]
     assert counts["/cage/map"] == 1 and counts["/cage/mission_event"] >= 1
 
-    from mcap_ros2.reader import read_ros2_messages
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
     seen = {}
-    for m in read_ros2_messages(str(mcaps[0]), topics=["/cage/map", "/cage/mission_event"]):
-        seen.setdefault(m.channel.topic, m.ros_msg)
+    with open(mcaps[0], "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, _, msg in reader.iter_decoded_messages(topics=["/cage/map", "/cage/mission_event"]):
+            seen.setdefault(channel.topic, msg)
     assert seen["/cage/map"].net_radius == 30.0
     assert seen["/cage/mission_event"].event in (2, 3, 4, 5)
-    assert store is not None
 
 
 def test_start_order_does_not_matter(launch, ros_env, tmp_path):
