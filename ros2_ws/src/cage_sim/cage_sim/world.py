@@ -34,6 +34,9 @@ class Obstacle:
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
             raise ValueError(f"obstacle shape must be one of {SHAPES}, got {self.shape!r}")
+        for name in ("x", "y", "ax", "ay", "period"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"obstacle {name} must be finite, got {getattr(self, name)!r}")
         if not (self.size > 0 and math.isfinite(self.size)):
             raise ValueError(f"obstacle size must be a positive number, got {self.size!r}")
         if (self.ax or self.ay) and not self.period > 0:
