@@ -1,0 +1,185 @@
+"""One typed training config: every hyperparameter, named presets, YAML files and CLI overrides.
+
+Precedence (later wins): dataclass defaults (= the study's DDPG) < ``--preset`` < ``--config`` YAML
+< ``--set key=value`` overrides. Unknown keys are errors, so a typo never silently trains the
+wrong thing. Reward terms are written ``reward.<field>`` (the fields of ``cage_sim.mission.RewardConfig``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import yaml
+from cage_sim.mission import EnvConfig, RewardConfig
+
+
+@dataclass
+class TrainConfig:
+    # --- problem ------------------------------------------------------------------------
+    scenario: str = "study2d"            # name, YAML file, or a mix "study2d:0.5,cage:0.5"
+    motion: str = "study"                # "study" (the study's step) or "continuous" (the vehicle node)
+    reward: dict = field(default_factory=dict)   # RewardConfig overrides, e.g. {"progress_weight": 1}
+    planner: str = "none"                # training routes: none (straight), rrt, dense, dense_mix
+    # --- budget -------------------------------------------------------------------------
+    seed: int = 0
+    total_steps: int = 0                 # env steps (all envs together); 0 = use episodes
+    episodes: int = 10_000               # the study's 10,000 episodes (used when total_steps == 0)
+    n_envs: int = 1                      # missions stepped together (CageNavVecEnv)
+    threads: int = 1                     # torch intra-op threads
+    # --- DDPG (the study's values) ------------------------------------------------------
+    actor_hidden: tuple = (400, 300)
+    critic_hidden: tuple = (400, 300)
+    lr_actor: float = 1e-4
+    lr_critic: float = 1e-3
+    gamma: float = 0.99
+    tau: float = 0.001
+    batch_size: int = 64
+    buffer_size: int = 150_000
+    prefill_steps: int = 0               # random-action steps before learning; -1 = fill the buffer
+    prefill_fraction: float = 0.3        # used when prefill_steps == 0: share of the budget (study ~3k/10k)
+    noise: str = "ou"                    # "ou" (Ornstein-Uhlenbeck, DDPG paper) or "gaussian"
+    noise_std: float = 0.2
+    noise_theta: float = 0.15
+    noise_final_std: float = -1.0        # < 0: constant; else linear decay to this value
+    # --- improvements (off = the study) -------------------------------------------------
+    updates_per_step: float = 1.0        # gradient updates per env step (update-to-data ratio)
+    n_step: int = 1                      # n-step returns
+    obs_norm: bool = False               # running observation normalisation
+    twin_critic: bool = False            # TD3: clipped double Q
+    policy_delay: int = 1                # TD3: actor/target update every k critic updates
+    target_noise: float = 0.0            # TD3: target policy smoothing std (0 = off)
+    target_noise_clip: float = 0.5
+    grad_clip: float = 0.0               # max grad norm (0 = off)
+    # --- logging ------------------------------------------------------------------------
+    eval_every: int = 0                  # env steps between evaluations (0 = only at the end)
+    eval_episodes: int = 100
+    eval_scenario: str = ""              # "" = the first scenario of the mix
+    checkpoint_every: int = 0            # env steps between checkpoints (0 = only at the end)
+    tensorboard: bool = True
+    moving_average: int = 100
+
+    # ------------------------------------------------------------------------------------
+    def env_config(self) -> EnvConfig:
+        return EnvConfig(reward=RewardConfig(**self.reward), motion=self.motion)
+
+    def validate(self) -> "TrainConfig":
+        bad = set(self.reward) - {f.name for f in fields(RewardConfig)}
+        if bad:
+            raise ValueError(f"reward: unknown field(s) {sorted(bad)}")
+        if self.motion not in ("study", "continuous"):
+            raise ValueError(f"motion: must be 'study' or 'continuous', got {self.motion!r}")
+        if self.noise not in ("ou", "gaussian"):
+            raise ValueError(f"noise: must be 'ou' or 'gaussian', got {self.noise!r}")
+        for name in ("n_envs", "batch_size", "buffer_size", "n_step", "policy_delay"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name}: must be >= 1")
+        if self.total_steps <= 0 and self.episodes <= 0:
+            raise ValueError("total_steps or episodes must be > 0")
+        self.actor_hidden = tuple(int(h) for h in self.actor_hidden)
+        self.critic_hidden = tuple(int(h) for h in self.critic_hidden)
+        return self
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["actor_hidden"], d["critic_hidden"] = list(self.actor_hidden), list(self.critic_hidden)
+        return d
+
+
+# Study budgets are in episodes; our presets in env steps (vectorised envs finish episodes in bulk).
+PRESETS: dict[str, dict[str, Any]] = {
+    "study": {},
+    "study_low_lr": {"lr_actor": 1e-5, "lr_critic": 1e-4},
+    "study_extra_layer": {"actor_hidden": (400, 300, 200), "critic_hidden": (400, 300, 200)},
+    # Ours: many envs, small nets, big batches, TD3 tricks, n-step, progress/clearance shaping,
+    # trained on a mix of the study's case and the full cage with the vehicle node's motion model.
+    "fast": {
+        "scenario": "study2d:0.3,cage:0.7", "motion": "continuous", "planner": "dense_mix",
+        "reward": {"goal": 10.0, "collision": -10.0, "wander": -10.0, "distance_weight": 0.0,
+                   "heading_weight": 0.0, "progress_weight": 1.0, "clearance_weight": 1.0,
+                   "clearance_margin": 1.5, "overtime_penalty": 0.0},
+        "total_steps": 1_000_000, "n_envs": 16, "actor_hidden": (128, 128), "critic_hidden": (128, 128),
+        "lr_actor": 3e-4, "lr_critic": 1e-3, "gamma": 0.98, "tau": 0.005, "batch_size": 256,
+        "buffer_size": 500_000, "prefill_steps": 10_000, "noise": "gaussian", "noise_std": 0.3,
+        "noise_final_std": 0.1, "updates_per_step": 0.25, "n_step": 3, "twin_critic": True,
+        "policy_delay": 2, "target_noise": 0.2, "eval_every": 50_000, "eval_episodes": 200,
+        "eval_scenario": "cage", "checkpoint_every": 100_000,
+    },
+}
+# "rrt": "fast" trained on the routes the graph really flies: the global planner's corner waypoints
+# (cage_global_rrt, the rrt_node's own options) instead of straight lines cut every metre.
+PRESETS["rrt"] = {**PRESETS["fast"], "planner": "rrt"}
+
+
+def _coerce(name: str, value: Any, current: Any) -> Any:
+    """Parse a CLI string to the type of the field it overrides (YAML syntax: 1e-3, [64, 64], true)."""
+    if isinstance(value, str):
+        value = yaml.safe_load(value)
+    if isinstance(current, bool):
+        if not isinstance(value, bool):
+            raise ValueError(f"{name}: expected true/false, got {value!r}")
+        return value
+    if isinstance(current, tuple):
+        if not isinstance(value, (list, tuple)):
+            raise ValueError(f"{name}: expected a list like [256, 256], got {value!r}")
+        return tuple(value)
+    if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(current, str) and not isinstance(value, str):
+        return str(value)
+    if current is not None and not isinstance(value, type(current)):
+        raise ValueError(f"{name}: expected {type(current).__name__}, got {value!r}")
+    return value
+
+
+def apply(cfg: TrainConfig, updates: dict[str, Any]) -> TrainConfig:
+    """Apply a mapping of overrides; ``reward.x`` keys (or a ``reward`` mapping) merge into reward."""
+    names = {f.name for f in fields(TrainConfig)}
+    for key, value in updates.items():
+        if key.startswith("reward."):
+            cfg.reward = {**cfg.reward, key.split(".", 1)[1]: float(_coerce(key, value, 0.0))}
+        elif key == "reward":
+            cfg.reward = {**cfg.reward, **dict(value)}
+        elif key in names:
+            setattr(cfg, key, _coerce(key, value, getattr(cfg, key)))
+        else:
+            raise ValueError(f"{key}: unknown config key (see cage_reactive_ddpg/config.py)")
+    return cfg
+
+
+def build(preset: str | None = None, file: str | Path | None = None,
+          overrides: list[str] | dict | None = None) -> TrainConfig:
+    """Defaults < preset < YAML file < overrides (``key=value`` strings or a dict)."""
+    cfg = TrainConfig()
+    data: dict[str, Any] = {}
+    if file:
+        data = yaml.safe_load(Path(file).read_text()) or {}
+        if not isinstance(data, dict):
+            raise ValueError(f"{file}: expected a mapping of config keys")
+    preset = preset or data.pop("preset", None)
+    data.pop("preset", None)
+    if preset:
+        if preset not in PRESETS:
+            raise ValueError(f"preset: {preset!r} is not one of {', '.join(PRESETS)}")
+        apply(cfg, PRESETS[preset])
+    apply(cfg, data)
+    if isinstance(overrides, dict):
+        apply(cfg, overrides)
+    else:
+        for item in overrides or []:
+            if "=" not in item:
+                raise ValueError(f"--set {item!r}: expected key=value")
+            k, v = item.split("=", 1)
+            apply(cfg, {k.strip(): v.strip()})
+    return cfg.validate()
+
+
+def from_dict(d: dict) -> TrainConfig:
+    """Rebuild a config stored in a policy's metadata or a checkpoint."""
+    return apply(TrainConfig(), d).validate()
+
+
+def dumps(cfg: TrainConfig) -> str:
+    return json.dumps(cfg.to_dict(), indent=2)

@@ -1,0 +1,192 @@
+"""Evaluate a policy (or the classical baseline) on N seeded episodes.
+
+Missions are stepped in batches (one batched sonar call and one batched forward per step), but each
+episode is fully determined by its scenario (``missions.episode_scenarios``), so the results are the
+same as running them one by one, and the policy and the baseline meet the same episodes.
+
+  evaluate --scenario study2d --episodes 1000 --seed 1 --policy baseline --json out.json --plot out.png
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from cage_sim.controller import ArcController, Policy
+from cage_sim.mission import OUTCOMES, EnvConfig, Mission
+from cage_sim.scenarios import Scenario
+from tqdm import tqdm
+
+from .missions import PLANNERS, episode_scenarios, waypoint_fn
+
+
+@dataclass
+class EpisodeResult:
+    index: int
+    outcome: str
+    steps: int
+    travelled: float
+    route_length: float
+    track: list = field(default_factory=list, repr=False)
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson score interval for k successes in n trials (sane at 0 % and 100 %)."""
+    if n == 0:
+        return (0.0, 1.0)
+    p = k / n
+    den = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
+                 keep_tracks: int = 0, progress: bool = False) -> list[EpisodeResult]:
+    """Run every scenario to its end; keep the tracks of the first ``keep_tracks`` episodes."""
+    results: list[EpisodeResult] = []
+    bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
+    rng = np.random.default_rng(0)   # sonar noise only (off by default)
+    for lo in range(0, len(scenarios), batch):
+        ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
+        live = list(range(len(ms)))
+        while live:
+            obs = _observe(config, [ms[i] for i in live], rng)
+            acts = np.asarray(policy.act(obs), dtype=np.float64).reshape(len(live), -1)[:, 0]
+            still = []
+            for i, a in zip(live, acts):
+                _, outcome = ms[i].step(float(np.clip(a, -1.0, 1.0)))
+                if outcome is None:
+                    still.append(i)
+                else:
+                    m, k = ms[i], lo + i
+                    results.append(EpisodeResult(k, outcome, m.steps, m.travelled, m.route_length,
+                                                 list(m.track) if k < keep_tracks else []))
+                    bar.update(1)
+            live = still
+    bar.close()
+    return sorted(results, key=lambda r: r.index)
+
+
+def _observe(config: EnvConfig, ms: list[Mission], rng) -> np.ndarray:
+    poses = np.array([m.pose for m in ms])
+    ranges = config.sonar.scan_batch([m.world for m in ms], poses, np.array([m.t for m in ms]), rng)
+    wp = np.array([m.waypoint() for m in ms])
+    return config.layout.build(ranges, wp[:, 0], wp[:, 1])
+
+
+def summarize(results: list[EpisodeResult]) -> dict:
+    n = len(results)
+    counts = {o: sum(r.outcome == o for r in results) for o in OUTCOMES}
+    goals = [r for r in results if r.outcome == "goal"]
+    return {
+        "episodes": n,
+        "counts": counts,
+        "rates": {o: counts[o] / n if n else 0.0 for o in OUTCOMES},
+        "ci95": {o: list(wilson(counts[o], n)) for o in OUTCOMES},
+        "mean_steps": float(np.mean([r.steps for r in results])) if n else 0.0,
+        "mean_steps_goal": float(np.mean([r.steps for r in goals])) if goals else None,
+        "path_ratio_goal": float(np.mean([r.travelled / r.route_length for r in goals])) if goals else None,
+    }
+
+
+def table(name: str, s: dict) -> str:
+    lines = [f"{name}: {s['episodes']} episodes",
+             f"  {'outcome':<10}{'count':>7}{'rate':>9}   95% CI"]
+    for o in OUTCOMES:
+        lo, hi = s["ci95"][o]
+        lines.append(f"  {o:<10}{s['counts'][o]:>7}{100 * s['rates'][o]:>8.1f}%   [{100 * lo:.1f}, {100 * hi:.1f}]")
+    lines.append(f"  mean steps {s['mean_steps']:.1f}; goal episodes: mean steps "
+                 f"{_fmt(s['mean_steps_goal'])}, path / route length {_fmt(s['path_ratio_goal'], '.3f')}")
+    return "\n".join(lines)
+
+
+def _fmt(v, spec: str = ".1f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def plot_tracks(path: str | Path, scenarios: list[Scenario], results: list[EpisodeResult],
+                title: str = "", n: int = 9) -> None:
+    """A grid of episodes (world, route, track coloured by outcome), like the study's path figures."""
+    import matplotlib.pyplot as plt
+    from cage_sim.plotting import draw_track, draw_world
+    shown = [r for r in results if r.track][:n]
+    cols = min(3, len(shown)) or 1
+    rows = max(1, math.ceil(len(shown) / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.2 * rows), squeeze=False)
+    for ax in axes.flat:
+        ax.set_visible(False)
+    for ax, r in zip(axes.flat, shown):
+        ax.set_visible(True)
+        sc = scenarios[r.index]
+        draw_world(ax, sc.world)
+        route = np.vstack([np.asarray(sc.start[:2])[None], sc.route()])
+        ax.plot(route[:, 0], route[:, 1], "--", color="tab:blue", lw=0.8)
+        draw_track(ax, r.track, r.outcome)
+        ax.plot(*sc.start[:2], "k^", ms=7)
+        ax.plot(*sc.goal, "r*", ms=11)
+        ax.set_title(f"episode {r.index}: {r.outcome} ({r.steps} steps)", fontsize=9)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def load_driver(spec: str | None):
+    """``baseline`` -> ArcController; else a policy file (None = the shipped one)."""
+    if spec == "baseline":
+        return ArcController(), "baseline (ArcController)", None
+    from .policy import load_policy
+    pol = load_policy(spec)
+    return pol, f"policy {pol.path}", pol.metadata
+
+
+def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
+             planner: str = "none", keep_tracks: int = 9, progress: bool = False):
+    """(summary dict, scenarios, results) for ``episodes`` seeded episodes."""
+    routes = waypoint_fn(planner)
+    scs = episode_scenarios(scenario, episodes, seed, routes)
+    res = run_missions(driver, scs, EnvConfig(motion=motion), keep_tracks=keep_tracks, progress=progress)
+    summary = summarize(res)
+    # Missions whose plan failed fly the straight line: say how many, never hide it.
+    summary["planner_failures"] = len(getattr(routes, "failures", []))
+    return summary, scs, res
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenario", default="study2d", help="scenario name, YAML file, or mix a:0.5,b:0.5")
+    ap.add_argument("--episodes", type=int, default=1000)
+    ap.add_argument("--seed", type=int, default=12345)
+    ap.add_argument("--policy", default=None, help="policy file (.safetensors/.json), 'baseline'; default: shipped")
+    ap.add_argument("--motion", default=None, choices=["continuous", "study"],
+                    help="vehicle step (default: the policy's training motion; continuous for the baseline)")
+    ap.add_argument("--planner", default="none", choices=list(PLANNERS),
+                    help="route: none = straight to the goal, rrt = the global planner, dense = straight every 1 m")
+    ap.add_argument("--json", default=None, help="write the summary here")
+    ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
+    ap.add_argument("--quiet", action="store_true")
+    a = ap.parse_args(argv)
+    try:
+        driver, name, meta = load_driver(a.policy)
+    except Exception as err:  # noqa: BLE001 - a clear one-line error for people
+        print(f"evaluate: {err}", file=sys.stderr)
+        return 2
+    motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
+    summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
+                                 keep_tracks=9 if a.plot else 0, progress=not a.quiet)
+    summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner)
+    print(table(f"{name} on {a.scenario} (seed {a.seed}, motion {motion}, planner {a.planner})", summary))
+    if a.json:
+        Path(a.json).write_text(json.dumps(summary, indent=2))
+    if a.plot:
+        plot_tracks(a.plot, scs, res, f"{name} on {a.scenario}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,86 @@
+"""Actor and critic networks: the one definition the trainer, the policy loader and the node share.
+
+Why one module: a policy file is only a state dict plus sizes; whoever loads it must rebuild exactly
+the same modules, so the modules live here and nowhere else.
+
+Actor: obs -> MLP (ReLU) -> tanh, an action in [-1, 1] (the vehicle scales it to +-max_turn).
+Critic: [obs, action] -> MLP (ReLU) -> Q (linear). Both carry an ``ObsNormalizer`` (identity unless
+observation normalisation is switched on) so a saved actor normalises its inputs by itself.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+from torch import nn
+
+
+class ObsNormalizer(nn.Module):
+    """Running mean/variance of observations, stored as buffers so they travel in the state dict.
+
+    ``enabled`` is a buffer too: a policy saved without normalisation loads as the identity.
+    """
+
+    def __init__(self, obs_dim: int, clip: float = 5.0, eps: float = 1e-4):
+        super().__init__()
+        self.clip, self.eps = clip, eps
+        self.register_buffer("mean", torch.zeros(obs_dim))
+        self.register_buffer("var", torch.ones(obs_dim))
+        self.register_buffer("count", torch.tensor(0.0))
+        self.register_buffer("enabled", torch.tensor(0.0))
+
+    @torch.no_grad()
+    def update(self, batch: torch.Tensor) -> None:
+        """Chan's parallel update of mean/var with a batch of observations."""
+        b_mean, b_var, n = batch.mean(0), batch.var(0, unbiased=False), batch.shape[0]
+        tot = self.count + n
+        delta = b_mean - self.mean
+        self.mean += delta * n / tot
+        self.var = (self.var * self.count + b_var * n + delta.pow(2) * self.count * n / tot) / tot
+        self.count.fill_(float(tot))
+        self.enabled.fill_(1.0)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        if not bool(self.enabled):
+            return obs
+        return ((obs - self.mean) / torch.sqrt(self.var + self.eps)).clamp(-self.clip, self.clip)
+
+
+def mlp(in_dim: int, hidden: Sequence[int], out_dim: int) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    for h in hidden:
+        layers += [nn.Linear(in_dim, h), nn.ReLU()]
+        in_dim = h
+    layers.append(nn.Linear(in_dim, out_dim))
+    return nn.Sequential(*layers)
+
+
+class Actor(nn.Module):
+    """Deterministic policy mu(s) in [-1, 1]^act_dim."""
+
+    def __init__(self, obs_dim: int, hidden: Sequence[int] = (400, 300), act_dim: int = 1):
+        super().__init__()
+        self.obs_dim, self.act_dim, self.hidden = obs_dim, act_dim, tuple(int(h) for h in hidden)
+        self.norm = ObsNormalizer(obs_dim)
+        self.net = mlp(obs_dim, self.hidden, act_dim)
+        # Small last layer, as in the DDPG paper: start near a = 0 (straight ahead), not saturated.
+        nn.init.uniform_(self.net[-1].weight, -3e-3, 3e-3)
+        nn.init.uniform_(self.net[-1].bias, -3e-3, 3e-3)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        return torch.tanh(self.net(self.norm(obs)))
+
+
+class Critic(nn.Module):
+    """Q(s, a); the action joins the observation at the input."""
+
+    def __init__(self, obs_dim: int, hidden: Sequence[int] = (400, 300), act_dim: int = 1):
+        super().__init__()
+        self.hidden = tuple(int(h) for h in hidden)
+        self.norm = ObsNormalizer(obs_dim)
+        self.net = mlp(obs_dim + act_dim, self.hidden, 1)
+        nn.init.uniform_(self.net[-1].weight, -3e-3, 3e-3)
+        nn.init.uniform_(self.net[-1].bias, -3e-3, 3e-3)
+
+    def forward(self, obs: torch.Tensor, act: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat([self.norm(obs), act], dim=-1)).squeeze(-1)

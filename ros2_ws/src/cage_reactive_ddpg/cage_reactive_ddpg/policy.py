@@ -1,0 +1,158 @@
+"""Saving and loading a trained policy: safetensors weights + a JSON metadata file beside them.
+
+Why this shape: safetensors holds tensors only (no pickled code, safe to load from anywhere); the
+JSON says what the tensors mean (observation layout, action scale, network sizes, normalisation,
+training config, evaluation results, code version). ``load_policy`` refuses a file that does not
+fit this build (layout, action scale, sizes, missing or corrupt files) with a ``PolicyLoadError``
+naming what differs, instead of driving the vehicle with a policy that reads the scan wrongly.
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from cage_sim.mission import EnvConfig
+from cage_sim.observation import ObservationLayout
+from cage_sim.vehicle import VehicleParams
+from safetensors import SafetensorError
+from safetensors.torch import load_file, save_file
+
+from . import __version__
+from .networks import Actor
+
+FORMAT = "cage_reactive_ddpg/policy-v1"
+SHIPPED = "policy.safetensors"
+
+
+class PolicyLoadError(RuntimeError):
+    """A policy file that cannot be used with this build; the message says why."""
+
+
+def code_version() -> str:
+    """``git describe`` of the source tree when there is one, else the package version."""
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], capture_output=True,
+                             text=True, timeout=5, cwd=Path(__file__).resolve().parent)
+        if out.returncode == 0 and out.stdout.strip():
+            return f"{__version__}+{out.stdout.strip()}"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return __version__
+
+
+def paths(path: str | Path) -> tuple[Path, Path]:
+    """(weights, metadata) for ``x.safetensors``, ``x.json`` or the stem ``x``."""
+    p = Path(path)
+    stem = p.with_suffix("") if p.suffix in (".safetensors", ".json") else p
+    return stem.with_suffix(".safetensors"), stem.with_suffix(".json")
+
+
+def save_policy(path: str | Path, actor: Actor, metadata: dict[str, Any]) -> tuple[Path, Path]:
+    """Write the actor's weights and ``metadata`` (plus layout/action/network facts) next to each other."""
+    wpath, mpath = paths(path)
+    wpath.parent.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().contiguous().clone() for k, v in actor.state_dict().items()}
+    save_file(state, str(wpath), metadata={"format": FORMAT})
+    meta = {"format": FORMAT, "observation_layout": EnvConfig().layout.to_dict(),
+            "observation_normalisation": "running mean/var in the weights (norm.*), applied by the actor",
+            "action": {"dim": actor.act_dim, "max_turn_deg": math.degrees(VehicleParams().max_turn),
+                       "meaning": "change of heading per decision = action * max_turn"},
+            "network": {"obs_dim": actor.obs_dim, "actor_hidden": list(actor.hidden),
+                        "activation": "relu", "output": "tanh"},
+            "obs_norm": bool(actor.norm.enabled), "code_version": code_version(), **metadata}
+    mpath.write_text(json.dumps(meta, indent=2, default=_json_default))
+    return wpath, mpath
+
+
+def _json_default(o: Any):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, (tuple, np.ndarray)):
+        return list(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+@dataclass
+class LoadedPolicy:
+    """A trained actor behind the ``cage_sim.controller.Policy`` protocol."""
+
+    actor: Actor
+    layout: ObservationLayout
+    metadata: dict
+    path: Path
+
+    @torch.no_grad()
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """(D,) -> (1,) or (B, D) -> (B, 1), float32 in [-1, 1]."""
+        o = np.asarray(obs, dtype=np.float32)
+        if o.shape[-1] != self.layout.size:
+            raise ValueError(f"observation has {o.shape[-1]} values, the policy's layout has {self.layout.size}")
+        return self.actor(torch.from_numpy(o)).numpy().astype(np.float32)
+
+    @property
+    def max_turn(self) -> float:
+        """Action scale in radians (what action = +-1 means)."""
+        return math.radians(self.metadata["action"]["max_turn_deg"])
+
+
+def shipped_path() -> Path:
+    return Path(str(resources.files("cage_reactive_ddpg") / "weights" / SHIPPED))
+
+
+def load_policy(path: str | Path | None = None, layout: ObservationLayout | None = None,
+                vehicle: VehicleParams | None = None) -> LoadedPolicy:
+    """Load a policy (default: the shipped one) and check it against this build's layout and vehicle."""
+    wpath, mpath = paths(path if path is not None else shipped_path())
+    layout = layout or EnvConfig().layout
+    vehicle = vehicle or VehicleParams()
+    for p, what in ((wpath, "weights"), (mpath, "metadata")):
+        if not p.is_file():
+            raise PolicyLoadError(f"policy {what} file not found: {p}")
+    try:
+        meta = json.loads(mpath.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise PolicyLoadError(f"policy metadata {mpath} is not valid JSON: {err}") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise PolicyLoadError(f"policy metadata {mpath}: format is {meta.get('format') if isinstance(meta, dict) else None!r}, "
+                              f"expected {FORMAT!r}")
+    try:
+        layout.check_compatible(meta.get("observation_layout") or {})
+    except ValueError as err:
+        raise PolicyLoadError(f"policy {wpath} does not fit this build: {err}") from None
+    file_turn = meta.get("action", {}).get("max_turn_deg")
+    if file_turn is None or not math.isclose(file_turn, math.degrees(vehicle.max_turn), rel_tol=1e-6):
+        raise PolicyLoadError(f"policy {wpath}: action scale max_turn_deg is {file_turn!r} in the file, "
+                              f"this vehicle uses {math.degrees(vehicle.max_turn):g}")
+    net = meta.get("network", {})
+    if net.get("obs_dim") != layout.size:
+        raise PolicyLoadError(f"policy {wpath}: network obs_dim is {net.get('obs_dim')!r}, the layout has {layout.size}")
+    try:
+        state = load_file(str(wpath))
+    except (SafetensorError, OSError, ValueError) as err:
+        raise PolicyLoadError(f"policy weights {wpath} are corrupt or not safetensors: {err}") from None
+    actor = Actor(layout.size, net.get("actor_hidden", []), int(meta["action"].get("dim", 1)))
+    _check_state(actor, state, wpath)
+    actor.load_state_dict(state)
+    actor.eval()
+    return LoadedPolicy(actor, layout, meta, wpath)
+
+
+def _check_state(actor: Actor, state: dict, wpath: Path) -> None:
+    expected = actor.state_dict()
+    missing, extra = sorted(set(expected) - set(state)), sorted(set(state) - set(expected))
+    diffs = [f"{k}: file {tuple(state[k].shape)}, metadata says {tuple(v.shape)}"
+             for k, v in expected.items() if k in state and state[k].shape != v.shape]
+    if missing or extra or diffs:
+        parts = ([f"missing tensors {missing}"] if missing else []) + \
+                ([f"unexpected tensors {extra}"] if extra else []) + diffs
+        raise PolicyLoadError(f"policy weights {wpath} do not match the network in its metadata: " + "; ".join(parts))
+    bad = [k for k, v in state.items() if v.is_floating_point() and not torch.isfinite(v).all()]
+    if bad:
+        raise PolicyLoadError(f"policy weights {wpath} hold non-finite values in {bad}")

@@ -1,0 +1,101 @@
+"""Policy files: round trip, and refusal of mismatched, corrupt or missing files."""
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+from cage_sim.mission import EnvConfig
+from cage_sim.observation import ObservationLayout
+from cage_sim.vehicle import VehicleParams
+
+from cage_reactive_ddpg.networks import Actor
+from cage_reactive_ddpg.policy import PolicyLoadError, load_policy, save_policy, shipped_path
+
+OBS = EnvConfig().layout.size
+
+
+@pytest.fixture
+def saved(tmp_path):
+    torch.manual_seed(0)
+    actor = Actor(OBS, (16, 8))
+    actor.norm.update(torch.rand(50, OBS))       # normalisation travels in the file
+    wpath, mpath = save_policy(tmp_path / "p.safetensors", actor, {"note": "test"})
+    return actor, wpath, mpath
+
+
+def test_round_trip_gives_identical_actions(saved):
+    actor, wpath, _ = saved
+    pol = load_policy(wpath)
+    obs = np.random.default_rng(0).random((64, OBS), dtype=np.float32)
+    with torch.no_grad():
+        expected = actor(torch.from_numpy(obs)).numpy()
+    np.testing.assert_array_equal(pol.act(obs), expected)
+    assert pol.act(obs[0]).shape == (1,)
+    assert pol.metadata["note"] == "test" and pol.metadata["obs_norm"] is True
+    assert pol.layout == EnvConfig().layout
+
+
+def test_layout_mismatch_is_refused_naming_the_field(saved):
+    _, wpath, mpath = saved
+    meta = json.loads(mpath.read_text())
+    meta["observation_layout"]["n_beams"] = 36
+    mpath.write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match="n_beams: file has 36"):
+        load_policy(wpath)
+
+
+def test_other_build_layout_is_refused(saved):
+    _, wpath, _ = saved
+    with pytest.raises(PolicyLoadError, match="max_range"):
+        load_policy(wpath, layout=ObservationLayout(max_range=30.0))
+
+
+def test_action_scale_mismatch_is_refused(saved):
+    _, wpath, _ = saved
+    with pytest.raises(PolicyLoadError, match="max_turn_deg"):
+        load_policy(wpath, vehicle=VehicleParams(max_turn=math.radians(30)))
+
+
+def test_size_mismatch_is_refused(saved):
+    _, wpath, mpath = saved
+    meta = json.loads(mpath.read_text())
+    meta["network"]["actor_hidden"] = [16, 16]
+    mpath.write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match=r"net\.2\.weight: file \(8, 16\), metadata says \(16, 16\)"):
+        load_policy(wpath)
+
+
+def test_corrupt_weights_are_refused(saved):
+    _, wpath, _ = saved
+    wpath.write_bytes(b"\x00garbage" * 10)
+    with pytest.raises(PolicyLoadError, match="corrupt"):
+        load_policy(wpath)
+
+
+def test_truncated_weights_are_refused(saved):
+    _, wpath, _ = saved
+    data = wpath.read_bytes()
+    wpath.write_bytes(data[: len(data) // 2])
+    with pytest.raises(PolicyLoadError, match="corrupt"):
+        load_policy(wpath)
+
+
+def test_corrupt_metadata_and_missing_files_are_refused(saved, tmp_path):
+    _, wpath, mpath = saved
+    with pytest.raises(PolicyLoadError, match="not found"):
+        load_policy(tmp_path / "nothing.safetensors")
+    mpath.write_text("{not json")
+    with pytest.raises(PolicyLoadError, match="not valid JSON"):
+        load_policy(wpath)
+
+
+def test_shipped_policy_loads_and_acts():
+    assert shipped_path().is_file(), "the package must ship weights/policy.safetensors"
+    pol = load_policy()
+    obs = np.ones((3, OBS), np.float32)
+    obs[:, -1] = [0.5, 0.0, -0.5]           # waypoint to the left, ahead, to the right; nothing seen
+    a = pol.act(obs)
+    assert a.shape == (3, 1) and np.all(np.abs(a) <= 1.0)
+    assert a[0, 0] > 0.5 and a[2, 0] < -0.5, "with open water the policy turns toward the waypoint"
+    assert "evaluation" in pol.metadata and "training" in pol.metadata
