@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from cage_sim.controller import ArcController, Policy
-from cage_sim.mission import OUTCOMES, EnvConfig, Mission
+from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
 from cage_sim.scenarios import Scenario
 from tqdm import tqdm
 
@@ -55,7 +55,7 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
         ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
         live = list(range(len(ms)))
         while live:
-            obs = _observe(config, [ms[i] for i in live], rng)
+            obs = observe_batch(config, [ms[i] for i in live], rng)
             acts = np.asarray(policy.act(obs), dtype=np.float64).reshape(len(live), -1)[:, 0]
             still = []
             for i, a in zip(live, acts):
@@ -70,13 +70,6 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
             live = still
     bar.close()
     return sorted(results, key=lambda r: r.index)
-
-
-def _observe(config: EnvConfig, ms: list[Mission], rng) -> np.ndarray:
-    poses = np.array([m.pose for m in ms])
-    ranges = config.sonar.scan_batch([m.world for m in ms], poses, np.array([m.t for m in ms]), rng)
-    wp = np.array([m.waypoint() for m in ms])
-    return config.layout.build(ranges, wp[:, 0], wp[:, 1])
 
 
 def summarize(results: list[EpisodeResult]) -> dict:

@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .mission import EnvConfig, Mission
+from .mission import EnvConfig, Mission, observe_batch
 from .scenarios import Scenario, Sampler, scenario_sampler
 
 WaypointFn = Callable[[Scenario], Sequence[Sequence[float]] | None]
@@ -147,13 +147,7 @@ class CageNavVecEnv:
         return self._observe(range(self.n_envs))
 
     def _observe(self, idx) -> np.ndarray:
-        idx = list(idx)
-        ms = [self.missions[i] for i in idx]
-        poses = np.array([m.pose for m in ms])
-        ranges = self.config.sonar.scan_batch([m.world for m in ms], poses,
-                                              np.array([m.t for m in ms]), self.rngs[0])
-        wp = np.array([m.waypoint() for m in ms])
-        return self.config.layout.build(ranges, wp[:, 0], wp[:, 1])
+        return observe_batch(self.config, [self.missions[i] for i in idx], self.rngs[0])
 
     def step(self, actions: np.ndarray):
         actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(self.n_envs), -1.0, 1.0)

@@ -158,3 +158,11 @@ class Mission:
 
     def scan(self, rng: np.random.Generator | None = None) -> np.ndarray:
         return self.config.sonar.scan(self.world, self.x, self.y, self.yaw, self.t, rng)
+
+
+def observe_batch(config: EnvConfig, missions: list[Mission], rng: np.random.Generator | None = None) -> np.ndarray:
+    """Observations of many missions at once: one batched sonar call (each in its own world)."""
+    poses = np.array([m.pose for m in missions])
+    ranges = config.sonar.scan_batch([m.world for m in missions], poses, np.array([m.t for m in missions]), rng)
+    wp = np.array([m.waypoint() for m in missions])
+    return config.layout.build(ranges, wp[:, 0], wp[:, 1])
