@@ -39,14 +39,10 @@ def graph_mission(scenario: str, seed: int, policy: str, time_scale: float) -> d
 
 def offline_missions(scenario: str, seeds: list[int], policy: str) -> list:
     from cage_global_rrt.routes import RoutePlanner
-    from cage_sim.controller import ArcController
+    from cage_reactive_ddpg.evaluate import load_driver
     from cage_sim.env import CageNavEnv
     from cage_sim.rollout import run_episode
-    if policy == "baseline":
-        pol = ArcController()
-    else:
-        from cage_reactive_ddpg.policy import load_policy
-        pol = load_policy(policy or None)
+    pol, _, _ = load_driver(policy or None)   # a learned policy behind the shield, as the node runs it
     env = CageNavEnv(scenario, waypoint_fn=RoutePlanner())
     return [run_episode(env, pol, seed=s) for s in seeds]
 

@@ -8,6 +8,7 @@ import time
 import pytest
 
 from cage_global_rrt.routes import RoutePlanner
+from cage_reactive_ddpg.evaluate import load_driver
 from cage_sim.controller import ArcController
 from cage_sim.env import CageNavEnv
 from cage_sim.rollout import run_episode
@@ -32,17 +33,13 @@ def offline(policy, scenario="full_cage", seed=0):
     return run_episode(env, policy, seed=seed)
 
 
-def shipped_policy():
-    from cage_reactive_ddpg.policy import load_policy
-    return load_policy()
-
-
 @pytest.mark.parametrize("policy", ["shipped", "baseline"])
 def test_full_cage_mission_in_the_graph_ends_as_offline(ros_env, tmp_path, policy):
     args = ["--out", str(tmp_path), "--timeout", "150"] + (["--policy", "baseline"] if policy == "baseline" else [])
     rc, result, log = run_script(ros_env, *args)
     assert result is not None, log
-    ep = offline(ArcController() if policy == "baseline" else shipped_policy())
+    driver, _, _ = load_driver("baseline" if policy == "baseline" else None)   # shipped: behind the shield
+    ep = offline(driver)
     assert ep.outcome == "goal"
     assert rc == 0 and result["outcome"] == "goal", log
     assert result["steps"] == ep.steps

@@ -15,7 +15,7 @@ from cage_sim.scenarios import builtin_file
 from cage_sim.sonar import SonarModel
 from cage_sim.vehicle import propagate
 
-from conftest import ROOT, wait_for
+from conftest import ROOT
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 

@@ -19,6 +19,7 @@ import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
 from cage_sim.scenarios import Scenario
+from cage_sim.shield import SafetyShield
 from tqdm import tqdm
 
 from .missions import PLANNERS, episode_scenarios, waypoint_fn
@@ -95,6 +96,10 @@ def table(name: str, s: dict) -> str:
         lines.append(f"  {o:<10}{s['counts'][o]:>7}{100 * s['rates'][o]:>8.1f}%   [{100 * lo:.1f}, {100 * hi:.1f}]")
     lines.append(f"  mean steps {s['mean_steps']:.1f}; goal episodes: mean steps "
                  f"{_fmt(s['mean_steps_goal'])}, path / route length {_fmt(s['path_ratio_goal'], '.3f')}")
+    if s.get("planner_failures"):
+        lines.append(f"  planner failures (flown straight): {s['planner_failures']}")
+    if "shield_decisions" in s:
+        lines.append(f"  safety shield: overrode {s['shield_interventions']} of {s['shield_decisions']} decisions")
     return "\n".join(lines)
 
 
@@ -129,12 +134,15 @@ def plot_tracks(path: str | Path, scenarios: list[Scenario], results: list[Episo
     plt.close(fig)
 
 
-def load_driver(spec: str | None):
-    """``baseline`` -> ArcController; else a policy file (None = the shipped one)."""
+def load_driver(spec: str | None, shield: bool = True):
+    """``baseline`` -> ArcController; else a policy file (None = the shipped one), behind the safety
+    shield unless ``shield`` is off (as the policy node runs it)."""
     if spec == "baseline":
         return ArcController(), "baseline (ArcController)", None
     from .policy import load_policy
     pol = load_policy(spec)
+    if shield:
+        return SafetyShield(pol, ArcController(pol.layout)), f"policy {pol.path} + shield", pol.metadata
     return pol, f"policy {pol.path}", pol.metadata
 
 
@@ -160,12 +168,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="vehicle step (default: the policy's training motion; continuous for the baseline)")
     ap.add_argument("--planner", default="none", choices=list(PLANNERS),
                     help="route: none = straight to the goal, rrt = the global planner, dense = straight every 1 m")
+    ap.add_argument("--shield", default="on", choices=["on", "off"],
+                    help="run a policy behind the safety shield, as the policy node does (default on)")
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     try:
-        driver, name, meta = load_driver(a.policy)
+        driver, name, meta = load_driver(a.policy, a.shield == "on")
     except Exception as err:  # noqa: BLE001 - a clear one-line error for people
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
@@ -173,6 +183,8 @@ def main(argv: list[str] | None = None) -> int:
     summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
                                  keep_tracks=9 if a.plot else 0, progress=not a.quiet)
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner)
+    if isinstance(driver, SafetyShield):
+        summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions)
     print(table(f"{name} on {a.scenario} (seed {a.seed}, motion {motion}, planner {a.planner})", summary))
     if a.json:
         Path(a.json).write_text(json.dumps(summary, indent=2))

@@ -3,6 +3,8 @@
 Builds the observation with the same layout, route tracker and vehicle facts as the offline env, and
 asks the same policy (the shipped DDPG weights by default, a file from the ``policy`` parameter, or
 ``baseline`` for the classical controller), so a seeded mission ends in the graph as it does offline.
+A learned policy runs behind the safety shield (``cage_sim.shield``; parameter ``shield``, default
+on), as it does in the evaluator by default.
 
 Safety: weights that do not match this build are refused at start (exit 2, naming the mismatch).
 A scan of the wrong size, or with too many invalid (NaN / negative) ranges, gets a failsafe
@@ -24,6 +26,7 @@ from cage_sim.node_common import decision_period_ns, declare, declare_vehicle
 from cage_sim.node_runner import run_node
 from cage_sim.ros_convert import EVENT_OUTCOMES, odom_pose, path_points, stamp_ns, time_msg
 from cage_sim.route import RouteTracker
+from cage_sim.shield import SafetyShield
 from nav_msgs.msg import Odometry, Path
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
@@ -38,7 +41,7 @@ class PolicyNode(Node):
     def __init__(self) -> None:
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
-        self.p = declare(self, policy="", lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
+        self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
                          replan_after=40, min_progress=2.0, waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
         self.layout = EnvConfig().layout
@@ -68,8 +71,11 @@ class PolicyNode(Node):
             pol = load_policy(spec or None, self.layout, self.vehicle)
         except PolicyLoadError as err:
             raise ValueError(str(err)) from None
-        res = pol.metadata.get("evaluation", {})
-        self.get_logger().info(f"policy {pol.path} loaded ({pol.metadata.get('preset', '?')}; {res if res else ''})")
+        rates = pol.metadata.get("evaluation", {}).get("rates", {})
+        self.get_logger().info(f"policy {pol.path} loaded (training evaluation: {rates}); "
+                               f"safety shield {'on' if self.p['shield'] else 'off'}")
+        if self.p["shield"]:
+            return SafetyShield(pol, ArcController(self.layout, self.vehicle)), HeadingSetpoint.SOURCE_POLICY
         return pol, HeadingSetpoint.SOURCE_POLICY
 
     # --- inputs ----------------------------------------------------------------------------
@@ -89,8 +95,11 @@ class PolicyNode(Node):
         self.get_logger().info(f"following a plan of {len(pts)} waypoints ({self.tracker.length:.1f} m)")
 
     def on_event(self, msg: MissionEvent) -> None:
-        if msg.event in EVENT_OUTCOMES:
+        if msg.event in EVENT_OUTCOMES and not self.finished:
             self.finished = True
+            if isinstance(self.policy, SafetyShield):
+                self.get_logger().info(f"mission over: the shield overrode {self.policy.interventions} of "
+                                       f"{self.policy.decisions} decisions")
 
     def on_scan(self, msg: LaserScan) -> None:
         self.last_scan_wall = time.monotonic()

@@ -61,14 +61,18 @@ class ArcController:
             pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
         return np.array(pts)
 
-    def act_one(self, obs: np.ndarray) -> float:
+    def returns(self, obs: np.ndarray, reach: float | None = None) -> np.ndarray:
+        """Sonar returns within ``reach`` m (default: what the rollouts can come near), as body-frame
+        points (K, 2): the obstacle points the manoeuvres are checked against."""
         ranges = self.layout.ranges_from(obs)
+        seen = ranges < min(self.layout.max_range * 0.999, reach or self._reach)
+        ang = self._beams[seen]
+        return np.stack([ranges[seen] * np.cos(ang), ranges[seen] * np.sin(ang)], axis=1)
+
+    def act_one(self, obs: np.ndarray) -> float:
         dist, err = self.layout.waypoint_from(obs)
         goal = np.array([dist * math.cos(err), dist * math.sin(err)])
-        # Only returns the rollouts can come near matter (the farthest rollout point is ~horizon m out).
-        seen = ranges < min(self.layout.max_range * 0.999, self._reach)
-        ang = self._beams[seen]
-        pts = np.stack([ranges[seen] * np.cos(ang), ranges[seen] * np.sin(ang)], axis=1)
+        pts = self.returns(obs)
         if len(pts):
             d = np.linalg.norm(self._traj[:, :, None, :] - pts[None, None, :, :], axis=-1)
             clear_along = d.min(axis=2)                                  # [cand, point on traj]
@@ -92,7 +96,12 @@ class ArcController:
         return float(self._first[best])
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.ndim == 1:
-            return np.array([self.act_one(obs)], dtype=np.float32)
-        return np.array([[self.act_one(o)] for o in obs], dtype=np.float32)
+        return act_rows(self.act_one, obs)
+
+
+def act_rows(act_one, obs: np.ndarray) -> np.ndarray:
+    """The Policy protocol's shapes for a per-observation rule: (D,) -> (1,), (B, D) -> (B, 1)."""
+    obs = np.asarray(obs, dtype=np.float64)
+    if obs.ndim == 1:
+        return np.array([act_one(obs)], dtype=np.float32)
+    return np.array([[act_one(o)] for o in obs], dtype=np.float32)
