@@ -13,7 +13,7 @@ from cage_sim.controller import ArcController
 from cage_sim.env import CageNavEnv
 from cage_sim.rollout import run_episode
 
-from conftest import ROOT
+from graph_testlib import ROOT
 
 SCRIPT = ROOT / "scripts" / "run_mission.sh"
 
