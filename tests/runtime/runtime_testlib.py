@@ -6,10 +6,9 @@ import itertools
 import os
 import select
 import subprocess
-import sys
 import time
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Callable
 
 NODES = Path(__file__).parent / 'nodes'
 _counter = itertools.count()
