@@ -58,6 +58,8 @@ class SimNode(Node):
         self.create_subscription(Odometry, "/cage/odom", self.on_odom, 10)
         self.create_subscription(Path, "/cage/plan", self.on_plan, LATCHED)
 
+        # Compile (or load from numba's cache) the sonar before anyone waits on a scan.
+        self.sonar.scan(self.world, *self.scenario.start)
         self.map_pub.publish(world_to_map(self.world, 0, p["frame_id"]))
         self.marker_pub.publish(self.markers(0))
         self.get_logger().info(
