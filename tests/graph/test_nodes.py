@@ -158,3 +158,24 @@ def test_sim_node_publishes_map_and_scans(launch, probe):
     assert probe.until(lambda: len(scans) > 0, 5)
     s = scans[0]
     assert len(s.ranges) == 72 and s.range_max == 20.0 and s.header.frame_id == "base_link"
+
+
+def test_policy_node_asks_for_a_replan_without_progress(launch, probe):
+    events = probe.listen(MissionEvent, "/cage/mission_event")
+    setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
+    plan_pub = probe.node.create_publisher(Path, "/cage/plan", LATCHED)
+    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
+    scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
+    node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline", "-p", "replan_after:=3")
+    assert connected(probe, scan_pub), node.output
+    plan_pub.publish(path_msg([(0.0, 0.0), (20.0, 0.0)], 0))
+    assert probe.until(lambda: "following a plan" in node.output, 10), node.output
+    sonar = SonarModel()
+    for k in range(6):   # the vehicle reports the same place at every decision: no progress
+        odom_pub.publish(odom(0.0, 0.0, 0.0, k * 1_000_000_000))
+        probe.until(lambda: False, 0.15)
+        n = len(setpoints)
+        scan_pub.publish(scan_msg([10.0] * 72, sonar, k * 1_000_000_000))
+        assert probe.until(lambda: len(setpoints) > n, 5), node.output
+    assert probe.until(lambda: any(e.event == MissionEvent.REPLAN_REQUESTED for e in events), 5), node.output
+    assert "no progress" in [e for e in events if e.event == MissionEvent.REPLAN_REQUESTED][0].detail
