@@ -32,25 +32,35 @@ def connected(probe, pub, timeout=15.0) -> bool:
     return probe.until(lambda: pub.get_subscription_count() > 0, timeout)
 
 
+class PolicyRig:
+    """A policy_node (baseline driver) on a straight 20 m plan, fed pose + scan decision by decision."""
+
+    def __init__(self, launch, probe, *params: str):
+        self.probe = probe
+        self.setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
+        self.events = probe.listen(MissionEvent, "/cage/mission_event")
+        plan_pub = probe.node.create_publisher(Path, "/cage/plan", LATCHED)
+        self.odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
+        self.scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
+        self.node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline", *params)
+        assert connected(probe, self.scan_pub), self.node.output
+        plan_pub.publish(path_msg([(0.0, 0.0), (20.0, 0.0)], 0))
+        assert probe.until(lambda: "following a plan" in self.node.output, 10), self.node.output
+        self.sonar = SonarModel()
+
+    def decision(self, t_s: int, ranges, x: float | None = None) -> bool:
+        """Pose at (x or t_s metres, 0) then a scan, both stamped t_s; True once a setpoint answers."""
+        t_ns = int(t_s * 1e9)
+        self.odom_pub.publish(odom(float(t_s if x is None else x), 0.0, 0.0, t_ns))
+        self.probe.until(lambda: False, 0.15)
+        n = len(self.setpoints)
+        self.scan_pub.publish(scan_msg(ranges, self.sonar, t_ns))
+        return self.probe.until(lambda: len(self.setpoints) > n, 5)
+
+
 def test_policy_node_failsafe_on_invalid_and_wrong_size_scans(launch, probe):
-    setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
-    events = probe.listen(MissionEvent, "/cage/mission_event")
-    plan_pub = probe.node.create_publisher(Path, "/cage/plan", LATCHED)
-    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
-    scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
-    node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline")
-    assert connected(probe, scan_pub), node.output
-    plan_pub.publish(path_msg([(0.0, 0.0), (20.0, 0.0)], 0))
-    sonar = SonarModel()
-    assert probe.until(lambda: "following a plan" in node.output, 10), node.output
-
-    def decision(t_s, ranges):
-        odom_pub.publish(odom(float(t_s), 0.0, 0.0, int(t_s * 1e9)))
-        probe.until(lambda: False, 0.2)
-        scan_pub.publish(scan_msg(ranges, sonar, int(t_s * 1e9)))
-        n = len(setpoints)
-        return probe.until(lambda: len(setpoints) > n, 5)
-
+    rig = PolicyRig(launch, probe)
+    setpoints, events, node, decision = rig.setpoints, rig.events, rig.node, rig.decision
     assert decision(0, [float("nan")] * 72), node.output
     sp = setpoints[-1]
     assert sp.source == HeadingSetpoint.SOURCE_FAILSAFE and sp.speed == 0.0
@@ -161,21 +171,9 @@ def test_sim_node_publishes_map_and_scans(launch, probe):
 
 
 def test_policy_node_asks_for_a_replan_without_progress(launch, probe):
-    events = probe.listen(MissionEvent, "/cage/mission_event")
-    setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
-    plan_pub = probe.node.create_publisher(Path, "/cage/plan", LATCHED)
-    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
-    scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
-    node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline", "-p", "replan_after:=3")
-    assert connected(probe, scan_pub), node.output
-    plan_pub.publish(path_msg([(0.0, 0.0), (20.0, 0.0)], 0))
-    assert probe.until(lambda: "following a plan" in node.output, 10), node.output
-    sonar = SonarModel()
+    rig = PolicyRig(launch, probe, "-p", "replan_after:=3")
     for k in range(6):   # the vehicle reports the same place at every decision: no progress
-        odom_pub.publish(odom(0.0, 0.0, 0.0, k * 1_000_000_000))
-        probe.until(lambda: False, 0.15)
-        n = len(setpoints)
-        scan_pub.publish(scan_msg([10.0] * 72, sonar, k * 1_000_000_000))
-        assert probe.until(lambda: len(setpoints) > n, 5), node.output
-    assert probe.until(lambda: any(e.event == MissionEvent.REPLAN_REQUESTED for e in events), 5), node.output
-    assert "no progress" in [e for e in events if e.event == MissionEvent.REPLAN_REQUESTED][0].detail
+        assert rig.decision(k, [10.0] * 72, x=0.0), rig.node.output
+    replans = lambda: [e for e in rig.events if e.event == MissionEvent.REPLAN_REQUESTED]  # noqa: E731
+    assert probe.until(lambda: len(replans()) > 0, 5), rig.node.output
+    assert "no progress" in replans()[0].detail
