@@ -147,6 +147,19 @@ def test_rrt_node_plans_and_reports_failures(launch, probe):
     assert ask(45.0, 0.0).code == PlannerStatus.GOAL_OUTSIDE_NET
     assert probe.until(lambda: len(paths[-1].poses) == 0, 5), "a failed request clears the plan"
 
+    assert ask(*sc.goal).code == PlannerStatus.SUCCESS
+    event_pub = probe.node.create_publisher(MissionEvent, "/cage/mission_event", 10)
+    assert connected(probe, event_pub)
+    here = (sc.start[0] + 2.0, sc.start[1] + 1.0, 0.0)            # the vehicle has moved on
+    odom_pub.publish(odom(*here, 5_000_000_000))
+    probe.until(lambda: False, 0.3)
+    n = len(statuses)
+    event_pub.publish(MissionEvent(event=MissionEvent.REPLAN_REQUESTED, detail="test"))
+    assert probe.until(lambda: len(statuses) > n, 10), node.output
+    assert statuses[-1].code == PlannerStatus.SUCCESS
+    assert probe.until(lambda: paths[-1].poses and (paths[-1].poses[0].pose.position.x,
+                                                    paths[-1].poses[0].pose.position.y) == pytest.approx(here[:2]), 5)
+
 
 def test_sim_node_rejects_a_bad_scenario_file(launch, tmp_path):
     bad = tmp_path / "bad.yaml"

@@ -100,7 +100,7 @@ class RrtNode(Node):
         if msg.event != MissionEvent.REPLAN_REQUESTED:
             return
         if self.goal is None:
-            self.get_logger().warn("replan requested before any goal; ignored")
+            self.get_logger().warning("replan requested before any goal; ignored")
             return
         self.request()
 
