@@ -12,21 +12,30 @@ if [ ! -x .venv/bin/python ]; then
 fi
 vpy=.venv/bin/python
 stamp=.venv/.cage_setup_stamp
+log=.venv/setup.log
+pipq() {  # pip, quiet; its full output goes to .venv/setup.log and is shown only if it fails
+  if ! "$vpy" -m pip install -q --disable-pip-version-check "$@" >>"$log" 2>&1; then
+    cat "$log" >&2
+    echo "[setup] pip install $* failed (log: $log)" >&2
+    exit 1
+  fi
+}
 want=$(cat requirements.txt ros2_ws/src/*/setup.py ros2_ws/src/*/package.xml runtime/pyproject.toml 2>/dev/null | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$stamp" 2>/dev/null)" = "$want" ]; then
   exit 0
 fi
 echo "[setup] installing pinned dependencies into .venv (first run takes about a minute)"
-"$vpy" -m pip install -q --disable-pip-version-check -r requirements.txt
+: >"$log"
+pipq -r requirements.txt
 pkgs=()
 for p in cage_sim cage_global_rrt cage_reactive_ddpg; do
   [ -f "ros2_ws/src/$p/setup.py" ] && pkgs+=(-e "ros2_ws/src/$p")
 done
-"$vpy" -m pip install -q --disable-pip-version-check --no-deps "${pkgs[@]}"
+pipq --no-deps "${pkgs[@]}"
 origin=$("$vpy" -c 'import rclpy; print(rclpy.__file__)' 2>/dev/null || true)
 if [ -f runtime/pyproject.toml ] && { [ -z "$origin" ] || [[ "$origin" == "$root/runtime/"* ]]; }; then
   echo "[setup] no real rclpy found: installing the project's rclpy-compatible runtime (runtime/)"
-  "$vpy" -m pip install -q --disable-pip-version-check --no-deps -e runtime
+  pipq --no-deps -e runtime
 else
   echo "[setup] using the real rclpy at ${origin}"
 fi
