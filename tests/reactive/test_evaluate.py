@@ -53,3 +53,14 @@ def test_cli_baseline_json_and_plot(tmp_path, capsys):
 def test_cli_refuses_bad_policy_file(tmp_path, capsys):
     assert main(["--policy", str(tmp_path / "missing.safetensors"), "--episodes", "2", "--quiet"]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+def test_cli_bad_input_is_one_clear_line(capsys, tmp_path):
+    from cage_reactive_ddpg import evaluate as ev
+    from cage_reactive_ddpg import train as tr
+    assert ev.main(["--scenario", "nope", "--episodes", "1", "--quiet"]) == 2
+    assert "scenario: 'nope'" in capsys.readouterr().err
+    assert ev.main(["--policy", str(tmp_path / "missing.safetensors"), "--episodes", "1", "--quiet"]) == 2
+    assert "not found" in capsys.readouterr().err
+    assert tr.main(["--scenario", "nope", "--steps", "10", "--out", str(tmp_path / "run"), "--quiet"]) == 2
+    assert "scenario: 'nope'" in capsys.readouterr().err

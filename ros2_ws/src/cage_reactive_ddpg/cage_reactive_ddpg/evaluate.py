@@ -174,14 +174,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
-    try:
+    try:   # a missing or mismatched policy, a bad scenario: one clear line, no traceback
         driver, name, meta = load_driver(a.policy, a.shield == "on")
-    except Exception as err:  # noqa: BLE001 - a clear one-line error for people
+        motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
+        summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
+                                     keep_tracks=9 if a.plot else 0, progress=not a.quiet)
+    except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
-    motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
-    summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
-                                 keep_tracks=9 if a.plot else 0, progress=not a.quiet)
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner)
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions)

@@ -296,16 +296,16 @@ def config_from_args(a: argparse.Namespace) -> TrainConfig:
 
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
-    try:
-        cfg = config_from_args(a)
-    except (ValueError, OSError) as err:
-        print(f"train: {err}", file=sys.stderr)
-        return 2
     command = "train " + " ".join(shlex.quote(x) for x in (sys.argv[1:] if argv is None else argv))
     out = Path(a.out)
-    trainer = Trainer(cfg, out, command, progress=not a.quiet)
-    if a.resume:
-        trainer.load_checkpoint(Path(a.resume))
+    try:   # bad config keys, scenario names or files, checkpoints: one clear line, no traceback
+        cfg = config_from_args(a)
+        trainer = Trainer(cfg, out, command, progress=not a.quiet)
+        if a.resume:
+            trainer.load_checkpoint(Path(a.resume))
+    except (ValueError, OSError, RuntimeError) as err:
+        print(f"train: {err}", file=sys.stderr)
+        return 2
     (out / "config.yaml").write_text(__import__("yaml").safe_dump(cfg.to_dict(), sort_keys=False))
     final = trainer.run()
     rates = final.get("rates", {})
