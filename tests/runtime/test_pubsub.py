@@ -49,32 +49,24 @@ def test_late_joiner_gets_latched_sample(context, spawn) -> None:
     assert spin_until(_executor(context, node), lambda: got == ['the map'], 10.0), got
 
 
-def test_reliable_reader_does_not_match_best_effort_writer(context, spawn) -> None:
+@pytest.mark.parametrize('talker_args, compatible, incompatible', [
+    # a RELIABLE reader does not match a BEST_EFFORT writer
+    (['--ros-args', '-p', 'reliable:=false'], (False, False), (True, False)),
+    # a TRANSIENT_LOCAL reader does not match a VOLATILE writer
+    ([], (True, False), (True, True)),
+], ids=['reliable-vs-best-effort', 'transient-local-vs-volatile'])
+def test_incompatible_reader_does_not_match(context, spawn, talker_args, compatible, incompatible) -> None:
     from rclpy.node import Node
     from std_msgs.msg import String
-    spawn('talker.py', '--ros-args', '-p', 'reliable:=false')
+    spawn('talker.py', *talker_args)
     node = Node('qos_check', context=context)
-    best_effort: list[str] = []
-    reliable: list[str] = []
-    node.create_subscription(String, 'chatter', lambda m: best_effort.append(m.data), _qos(False, False))
-    sub = node.create_subscription(String, 'chatter', lambda m: reliable.append(m.data), _qos(True, False))
+    good: list[str] = []
+    bad: list[str] = []
+    node.create_subscription(String, 'chatter', lambda m: good.append(m.data), _qos(*compatible))
+    sub = node.create_subscription(String, 'chatter', lambda m: bad.append(m.data), _qos(*incompatible))
     # the compatible reader proves the writer is discovered and sending
-    assert spin_until(_executor(context, node), lambda: len(best_effort) >= 5, 15.0)
-    assert reliable == []
-    assert sub.get_publisher_count() == 0
-
-
-def test_transient_local_reader_does_not_match_volatile_writer(context, spawn) -> None:
-    from rclpy.node import Node
-    from std_msgs.msg import String
-    spawn('talker.py')
-    node = Node('durability_check', context=context)
-    volatile: list[str] = []
-    transient: list[str] = []
-    node.create_subscription(String, 'chatter', lambda m: volatile.append(m.data), _qos(True, False))
-    sub = node.create_subscription(String, 'chatter', lambda m: transient.append(m.data), _qos(True, True))
-    assert spin_until(_executor(context, node), lambda: len(volatile) >= 5, 15.0)
-    assert transient == []
+    assert spin_until(_executor(context, node), lambda: len(good) >= 5, 15.0)
+    assert bad == []
     assert sub.get_publisher_count() == 0
 
 
