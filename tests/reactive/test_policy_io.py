@@ -30,7 +30,7 @@ def test_round_trip_gives_identical_actions(saved):
     obs = np.random.default_rng(0).random((64, OBS), dtype=np.float32)
     with torch.no_grad():
         expected = actor(torch.from_numpy(obs)).numpy()
-    np.testing.assert_array_equal(pol.act(obs), expected)
+    np.testing.assert_allclose(pol.act(obs), expected, rtol=0, atol=1e-6)   # NumPy inference == torch
     assert pol.act(obs[0]).shape == (1,)
     assert pol.metadata["note"] == "test" and pol.metadata["obs_norm"] is True
     assert pol.layout == EnvConfig().layout
@@ -99,3 +99,57 @@ def test_shipped_policy_loads_and_acts():
     assert a.shape == (3, 1) and np.all(np.abs(a) <= 1.0)
     assert a[0, 0] > 0.5 and a[2, 0] < -0.5, "with open water the policy turns toward the waypoint"
     assert "evaluation" in pol.metadata and "training" in pol.metadata
+
+
+def mission_observations(n_missions: int = 3) -> np.ndarray:
+    """What the policy really reads: observations along full-cage missions flown by the baseline."""
+    from cage_sim.controller import ArcController
+    from cage_sim.env import CageNavEnv
+    env, drv, out = CageNavEnv("cage"), ArcController(), []
+    for seed in range(n_missions):
+        obs, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            out.append(obs)
+            obs, _, term, trunc, _ = env.step(drv.act(obs))
+            done = term or trunc
+    return np.array(out, dtype=np.float32)
+
+
+def test_numpy_inference_equals_torch_on_the_shipped_policy():
+    from safetensors.torch import load_file
+    pol = load_policy()
+    meta = pol.metadata
+    actor = Actor(meta["network"]["obs_dim"], meta["network"]["actor_hidden"], meta["action"]["dim"])
+    actor.load_state_dict(load_file(str(shipped_path())))
+    obs = mission_observations()
+    with torch.no_grad():
+        expected = actor(torch.from_numpy(obs)).numpy()
+    got = pol.act(obs)
+    assert got.dtype == np.float32 and got.shape == expected.shape
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(pol.act(obs[7]), expected[7], rtol=0, atol=1e-6)
+
+
+def test_loading_and_acting_does_not_import_torch():
+    import subprocess
+    import sys
+    code = ("import sys, numpy as np\n"
+            "from cage_reactive_ddpg.policy import load_policy\n"
+            "p = load_policy()\n"
+            "a = p.act(np.ones(p.layout.size, np.float32))\n"
+            "assert a.shape == (1,)\n"
+            "print(sorted(m for m in sys.modules if m == 'torch' or m.startswith('torch.')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]", f"torch was imported: {out.stdout[:200]}"
+
+
+def test_policy_for_another_sensor_profile_is_refused_naming_it(saved):
+    _, wpath, mpath = saved
+    meta = json.loads(mpath.read_text())
+    meta["sensor_profile"] = "fls"
+    mpath.write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match="trained for sensor profile 'fls', this sonar is profile 'study'"):
+        load_policy(wpath, profile="study")
+    assert load_policy(wpath, profile="fls").profile == "fls"

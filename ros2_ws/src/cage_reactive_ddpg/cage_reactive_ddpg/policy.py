@@ -5,6 +5,10 @@ JSON says what the tensors mean (observation layout, action scale, network sizes
 training config, evaluation results, code version). ``load_policy`` refuses a file that does not
 fit this build (layout, action scale, sizes, missing or corrupt files) with a ``PolicyLoadError``
 naming what differs, instead of driving the vehicle with a policy that reads the scan wrongly.
+
+Loading does not import torch: the weights are read with ``safetensors.numpy`` and the actor runs in
+NumPy (``inference.NumpyActor``, equal to the torch actor to 1e-6), so the policy node stays small
+(<= 100 MB resident) on a vehicle computer. Only ``save_policy`` (the trainer) imports torch.
 """
 from __future__ import annotations
 
@@ -16,16 +20,17 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import torch
-from cage_sim.mission import EnvConfig
 from cage_sim.observation import ObservationLayout
 from cage_sim.vehicle import VehicleParams
-from safetensors import SafetensorError
-from safetensors.torch import load_file, save_file
 
 from . import __version__
-from .networks import Actor
+from .inference import NumpyActor, read_state
+
+if TYPE_CHECKING:   # the trainer's side only; loading a policy never imports torch
+    from .networks import Actor
 
 FORMAT = "cage_reactive_ddpg/policy-v1"
 SHIPPED = "policy.safetensors"
@@ -54,13 +59,18 @@ def paths(path: str | Path) -> tuple[Path, Path]:
     return stem.with_suffix(".safetensors"), stem.with_suffix(".json")
 
 
-def save_policy(path: str | Path, actor: Actor, metadata: dict[str, Any]) -> tuple[Path, Path]:
-    """Write the actor's weights and ``metadata`` (plus layout/action/network facts) next to each other."""
+def save_policy(path: str | Path, actor: "Actor", metadata: dict[str, Any],
+                layout: ObservationLayout | None = None) -> tuple[Path, Path]:
+    """Write the actor's weights and ``metadata`` (plus layout/action/network facts) next to each other.
+
+    ``layout``: the observation layout the actor was trained on (default: this build's default)."""
+    from safetensors.torch import save_file
+    layout = layout or ObservationLayout()
     wpath, mpath = paths(path)
     wpath.parent.mkdir(parents=True, exist_ok=True)
     state = {k: v.detach().contiguous().clone() for k, v in actor.state_dict().items()}
     save_file(state, str(wpath), metadata={"format": FORMAT})
-    meta = {"format": FORMAT, "observation_layout": EnvConfig().layout.to_dict(),
+    meta = {"format": FORMAT, "observation_layout": layout.to_dict(),
             "observation_normalisation": "running mean/var in the weights (norm.*), applied by the actor",
             "action": {"dim": actor.act_dim, "max_turn_deg": math.degrees(VehicleParams().max_turn),
                        "meaning": "change of heading per decision = action * max_turn"},
@@ -81,20 +91,24 @@ def _json_default(o: Any):
 
 @dataclass
 class LoadedPolicy:
-    """A trained actor behind the ``cage_sim.controller.Policy`` protocol."""
+    """A trained actor behind the ``cage_sim.controller.Policy`` protocol (NumPy inference)."""
 
-    actor: Actor
+    actor: NumpyActor
     layout: ObservationLayout
     metadata: dict
     path: Path
 
-    @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
         """(D,) -> (1,) or (B, D) -> (B, 1), float32 in [-1, 1]."""
         o = np.asarray(obs, dtype=np.float32)
         if o.shape[-1] != self.layout.size:
             raise ValueError(f"observation has {o.shape[-1]} values, the policy's layout has {self.layout.size}")
-        return self.actor(torch.from_numpy(o)).numpy().astype(np.float32)
+        return self.actor(o)
+
+    @property
+    def profile(self) -> str:
+        """The sensor profile the policy was trained for (files older than profiles: ``study``)."""
+        return profile_of(self.metadata)
 
     @property
     def max_turn(self) -> float:
@@ -106,11 +120,21 @@ def shipped_path() -> Path:
     return Path(str(resources.files("cage_reactive_ddpg") / "weights" / SHIPPED))
 
 
+def profile_of(meta: dict) -> str:
+    """The sensor profile recorded in a policy's metadata (``study`` for files from before profiles)."""
+    lay = meta.get("observation_layout") or {}
+    return str(meta.get("sensor_profile") or lay.get("profile") or "study")
+
+
 def load_policy(path: str | Path | None = None, layout: ObservationLayout | None = None,
-                vehicle: VehicleParams | None = None) -> LoadedPolicy:
-    """Load a policy (default: the shipped one) and check it against this build's layout and vehicle."""
+                vehicle: VehicleParams | None = None, profile: str | None = None) -> LoadedPolicy:
+    """Load a policy (default: the shipped one) and check it against this build's layout and vehicle.
+
+    ``layout``: the observation layout the caller will build (default: this build's default);
+    ``profile``: the sensor profile the caller runs; a policy trained for another is refused, naming both.
+    """
     wpath, mpath = paths(path if path is not None else shipped_path())
-    layout = layout or EnvConfig().layout
+    layout = layout or ObservationLayout()
     vehicle = vehicle or VehicleParams()
     for p, what in ((wpath, "weights"), (mpath, "metadata")):
         if not p.is_file():
@@ -122,6 +146,9 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise PolicyLoadError(f"policy metadata {mpath}: format is {meta.get('format') if isinstance(meta, dict) else None!r}, "
                               f"expected {FORMAT!r}")
+    if profile is not None and profile_of(meta) != profile:
+        raise PolicyLoadError(f"policy {wpath} was trained for sensor profile {profile_of(meta)!r}, "
+                              f"this sonar is profile {profile!r}")
     try:
         layout.check_compatible(meta.get("observation_layout") or {})
     except ValueError as err:
@@ -134,25 +161,37 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
     if net.get("obs_dim") != layout.size:
         raise PolicyLoadError(f"policy {wpath}: network obs_dim is {net.get('obs_dim')!r}, the layout has {layout.size}")
     try:
-        state = load_file(str(wpath))
-    except (SafetensorError, OSError, ValueError) as err:
+        state = read_state(wpath)
+    except (OSError, ValueError) as err:
         raise PolicyLoadError(f"policy weights {wpath} are corrupt or not safetensors: {err}") from None
-    actor = Actor(layout.size, net.get("actor_hidden", []), int(meta["action"].get("dim", 1)))
-    _check_state(actor, state, wpath)
-    actor.load_state_dict(state)
-    actor.eval()
-    return LoadedPolicy(actor, layout, meta, wpath)
+    try:
+        hidden = [int(h) for h in net.get("actor_hidden", [])]
+        act_dim = int(meta["action"].get("dim", 1))
+    except (TypeError, ValueError) as err:
+        raise PolicyLoadError(f"policy metadata {mpath}: network.actor_hidden / action.dim: {err}") from None
+    _check_state(expected_shapes(layout.size, hidden, act_dim), state, wpath)
+    return LoadedPolicy(NumpyActor(state), layout, meta, wpath)
 
 
-def _check_state(actor: Actor, state: dict, wpath: Path) -> None:
-    expected = actor.state_dict()
+def expected_shapes(obs_dim: int, hidden: list[int], act_dim: int) -> dict[str, tuple[int, ...]]:
+    """Tensor names and shapes of ``networks.Actor(obs_dim, hidden, act_dim)``'s state dict."""
+    out: dict[str, tuple[int, ...]] = {"norm.mean": (obs_dim,), "norm.var": (obs_dim,),
+                                       "norm.count": (), "norm.enabled": ()}
+    prev = obs_dim
+    for i, h in enumerate(list(hidden) + [act_dim]):
+        out[f"net.{2 * i}.weight"], out[f"net.{2 * i}.bias"] = (h, prev), (h,)
+        prev = h
+    return out
+
+
+def _check_state(expected: dict[str, tuple[int, ...]], state: dict, wpath: Path) -> None:
     missing, extra = sorted(set(expected) - set(state)), sorted(set(state) - set(expected))
-    diffs = [f"{k}: file {tuple(state[k].shape)}, metadata says {tuple(v.shape)}"
-             for k, v in expected.items() if k in state and state[k].shape != v.shape]
+    diffs = [f"{k}: file {tuple(state[k].shape)}, metadata says {v}"
+             for k, v in expected.items() if k in state and tuple(state[k].shape) != v]
     if missing or extra or diffs:
         parts = ([f"missing tensors {missing}"] if missing else []) + \
                 ([f"unexpected tensors {extra}"] if extra else []) + diffs
         raise PolicyLoadError(f"policy weights {wpath} do not match the network in its metadata: " + "; ".join(parts))
-    bad = [k for k, v in state.items() if v.is_floating_point() and not torch.isfinite(v).all()]
+    bad = [k for k, v in state.items() if np.issubdtype(v.dtype, np.floating) and not np.isfinite(v).all()]
     if bad:
         raise PolicyLoadError(f"policy weights {wpath} hold non-finite values in {bad}")
