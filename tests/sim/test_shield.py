@@ -59,3 +59,93 @@ def test_batched_act_matches_single_and_is_deterministic():
     a = SafetyShield(ArcController()).act(batch)
     b = SafetyShield(ArcController()).act(obs)
     assert a.shape == (2, 1) and b.shape == (1,) and a[0, 0] == a[1, 0] == b[0]
+
+
+# --- drift (DVL) and moving returns: the rollouts check what will really be flown -----------------
+
+def run_one(driver, sc: Scenario, perception: bool):
+    from cage_reactive_ddpg.evaluate import run_missions
+    from cage_sim.mission import EnvConfig
+    return run_missions(driver, [sc], EnvConfig(), perception=perception)[0]
+
+
+def side_wall(current: float, y: float) -> Scenario:
+    """A long wall beside the route and a current pushing the vehicle toward it."""
+    wall = tuple(Obstacle("square", x, y + 1.0, 2.0) for x in np.arange(2.0, 26.0, 2.0))
+    return Scenario("side_wall", World(30.0, (), wall, (0.0, current)), (-5.0, 0.0, 0.0), (25.0, 0.0))
+
+
+def crossing_school(x: float, y: float, period: float = 40.0) -> Scenario:
+    """A 1.2 m school swimming to and fro across the straight route (about 0.75 m/s as it crosses)."""
+    school = (Obstacle("circle", x, y, 1.2, 0.0, -1.6 * y, period),)
+    return Scenario("school", World(30.0, (), school), (-10.0, 0.0, 0.0), (25.0, 0.0))
+
+
+def test_shield_with_drift_avoids_what_the_drift_free_shield_hits():
+    sc = side_wall(0.4, 2.5)
+    assert run_one(SafetyShield(Constant(0.0)), sc, perception=False).outcome == "collision"
+    assert run_one(SafetyShield(Constant(0.0)), sc, perception=True).outcome != "collision"
+
+
+def test_baseline_with_drift_reaches_the_goal_the_drift_free_baseline_misses():
+    sc = side_wall(0.5, 3.0)
+    assert run_one(ArcController(), sc, perception=False).outcome == "collision"
+    assert run_one(ArcController(), sc, perception=True).outcome == "goal"
+
+
+def test_moving_school_baseline_and_shield_extrapolate_its_motion():
+    sc = crossing_school(6.0, -3.0)
+    assert run_one(Constant(0.0), sc, perception=False).outcome == "collision"
+    assert run_one(ArcController(), sc, perception=False).outcome == "collision"   # takes it as static
+    assert run_one(ArcController(), sc, perception=True).outcome == "goal"
+    sc = crossing_school(8.0, -3.0)
+    assert run_one(SafetyShield(Constant(0.0)), sc, perception=False).outcome == "collision"
+    assert run_one(SafetyShield(Constant(0.0)), sc, perception=True).outcome != "collision"
+
+
+def test_return_motion_static_wall_is_still_and_a_school_moves():
+    from cage_sim.perception import ReturnMotion
+    from cage_sim.sonar import SonarModel
+    sonar, layout = SonarModel(), ArcController().layout
+    angles = np.arange(layout.n_beams) * (2 * np.pi / layout.n_beams)
+    wall = World(30.0, (), tuple(Obstacle("square", x, 4.0, 2.0) for x in (0.0, 2.0, 4.0, 6.0)))
+    school = World(30.0, (), (Obstacle("circle", 6.0, -2.0, 1.0, 0.0, 4.0, 40.0),))
+
+    def points(world, x, t):
+        r = sonar.scan(world, x, 0.0, 0.0, t)
+        seen = np.isfinite(r) & (r < 15.0)
+        return np.stack([r[seen] * np.cos(angles[seen]), r[seen] * np.sin(angles[seen])], axis=1)
+
+    mo = ReturnMotion()
+    mo.update(points(wall, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
+    assert np.all(mo.update(points(wall, 1.0, 1.0), (1.0, 0.0, 0.0), 1.0) == 0.0)   # the vehicle moved, not the wall
+    mo = ReturnMotion()
+    mo.update(points(school, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
+    v = mo.update(points(school, 1.0, 1.0), (1.0, 0.0, 0.0), 1.0)
+    true_vy = 4.0 * 2 * np.pi / 40.0 * np.cos(2 * np.pi * 0.5 / 40.0)            # ~0.63 m/s to the left
+    assert len(v) and np.all(np.abs(v[:, 1] - true_vy) < 0.2) and np.all(np.abs(v[:, 0]) < 0.2)
+
+
+def test_empty_scan_and_waypoint_dead_ahead_goes_straight():
+    ctrl = ArcController()
+    obs = ctrl.layout.build(np.full(ctrl.layout.n_beams, np.inf), 10.0, 0.0)
+    assert ctrl.act(obs)[0] == 0.0
+    assert SafetyShield(ArcController()).act(obs)[0] == 0.0
+    from cage_sim.perception import Perception
+    # With a 0.3 m/s drift to the left the baseline crabs to the right so its track over ground stays on the line.
+    a = ctrl.decide(10.0, 0.0, Perception(np.zeros((0, 2)), drift=np.array([0.0, 0.3])))
+    assert np.isclose(a * ctrl.vehicle.max_turn, -np.arcsin(0.3))
+
+
+def test_goal_abeam_inside_the_turning_circle_is_passed_through_not_orbited():
+    # The goal 2 m to the left: no arc reaches it; fly on, then turn back through it.
+    sc = Scenario("abeam", World(30.0), (0.0, 0.0, 0.0), (0.0, 2.0))
+    ep = run_one(ArcController(), sc, perception=True)
+    assert ep.outcome == "goal" and ep.steps <= 22     # circling it at 2 m would time out
+
+
+def test_goal_near_the_net_is_reached_head_on():
+    # 2.5 m from the net, approached square to the wall: passing through the goal ends the mission.
+    sc = Scenario("near_net", World(30.0), (0.0, 5.0, np.pi / 2), (0.0, 27.5))
+    ep = run_one(ArcController(), sc, perception=True)
+    assert ep.outcome == "goal" and ep.steps <= 26

@@ -7,8 +7,13 @@ and the policy node treat the two alike (``Policy`` protocol).
 Why arcs: the vehicle cannot turn on the spot (turning radius ~2.9 m), so a direction that is open
 as a straight ray can still be unreachable without hitting something on the way round. Each
 candidate is a manoeuvre the vehicle can really fly (turn at a fixed action for some decisions, then
-hold the heading), rolled out with the same vehicle model in the body frame; the sonar returns are
-the obstacle points. The candidate that keeps clear and ends nearest the waypoint wins.
+hold the heading; or hold the heading first, then turn: the way to pass through a goal that lies
+inside the turning circle instead of orbiting it), rolled out with the same vehicle model in the
+body frame; the sonar returns are the obstacle points. With a ``Perception`` (``decide``), the
+rollouts carry the drift (velocity over ground minus through-water velocity, from the DVL) and
+each return moves with its estimated velocity, so what is checked is what will be flown. The
+candidate that keeps clear and comes nearest the waypoint wins; when the waypoint is the goal,
+nothing after passing through it is checked (the mission ends there).
 """
 from __future__ import annotations
 
@@ -19,6 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from .observation import ObservationLayout
+from .perception import Perception
 from .vehicle import VehicleParams, decision_step
 
 
@@ -36,28 +42,36 @@ class ArcController:
     min_clearance: float = 1.1      # m: candidates passing closer to a return are rejected
     comfort: float = 2.5            # m: clearance below this is penalised
     comfort_weight: float = 2.0
+    goal_pass: float = 0.8          # m: a rollout point this near the goal counts as reaching it
 
     def __post_init__(self) -> None:
         self._beams = self.layout.angles if hasattr(self.layout, "angles") else \
             np.arange(self.layout.n_beams) * (2 * math.pi / self.layout.n_beams)
         self._first, self._traj = self._candidates()
+        period = self.vehicle.decision_period
+        self._times = np.repeat(np.arange(self.horizon) * period, 2) + np.tile([0.5 * period, period], self.horizon)
         self._reach = float(np.linalg.norm(self._traj, axis=-1).max()) + self.comfort
 
     def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
-        """Body-frame rollouts: hold action a for k decisions, then fly straight (a, k enumerated)."""
-        firsts, trajs = [0.0], [self._rollout(0.0, 0)]
+        """Body-frame rollouts: hold action a for k decisions then fly straight, or fly straight for
+        j decisions then hold a full turn (a, k, j enumerated)."""
+        firsts, trajs = [0.0], [self._rollout(lambda h: 0.0)]
         for a in (-1.0, -0.6, -0.3, 0.3, 0.6, 1.0):
             for k in range(1, self.horizon + 1):
                 firsts.append(a)
-                trajs.append(self._rollout(a, k))
+                trajs.append(self._rollout(lambda h, a=a, k=k: a if h < k else 0.0))
+        for a in (-1.0, 1.0):
+            for j in range(1, 5):
+                firsts.append(0.0)
+                trajs.append(self._rollout(lambda h, a=a, j=j: a if h >= j else 0.0))
         return np.array(firsts), np.array(trajs)
 
-    def _rollout(self, a: float, k: int) -> np.ndarray:
+    def _rollout(self, action_at) -> np.ndarray:
         x = y = yaw = 0.0
         pts = []
         for h in range(self.horizon):
             x0, y0 = x, y
-            x, y, yaw = decision_step(x, y, yaw, a if h < k else 0.0, self.vehicle)
+            x, y, yaw = decision_step(x, y, yaw, action_at(h), self.vehicle)
             pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
         return np.array(pts)
 
@@ -69,31 +83,77 @@ class ArcController:
         ang = self._beams[seen]
         return np.stack([ranges[seen] * np.cos(ang), ranges[seen] * np.sin(ang)], axis=1)
 
+    def perceive(self, obs: np.ndarray) -> Perception:
+        """What an observation alone says: its returns as static points, no drift."""
+        return Perception(self.returns(obs))
+
     def act_one(self, obs: np.ndarray) -> float:
         dist, err = self.layout.waypoint_from(obs)
+        return self.decide(float(dist), float(err), self.perceive(obs))
+
+    def decide(self, dist: float, err: float, p: Perception) -> float:
+        """The action for a waypoint at (dist, err) (body frame) given what is perceived."""
         goal = np.array([dist * math.cos(err), dist * math.sin(err)])
-        pts = self.returns(obs)
-        if len(pts):
-            d = np.linalg.norm(self._traj[:, :, None, :] - pts[None, None, :, :], axis=-1)
-            clear_along = d.min(axis=2)                                  # [cand, point on traj]
-            clearance = clear_along.min(axis=1)
+        drift = np.asarray(p.drift, dtype=np.float64)
+        # One more candidate: turn onto the waypoint (crabbing against the drift), then hold that heading.
+        a_aim = float(np.clip(self._aim(err, drift) / self.vehicle.max_turn, -1.0, 1.0)) if dist > 0 else 0.0
+        traj = np.concatenate([self._traj, self._rollout(lambda h: a_aim if h == 0 else 0.0)[None]])
+        firsts = np.append(self._first, a_aim)
+        flown = traj + drift * self._times[None, :, None]                # [cand, point, 2] over ground
+        to_goal = np.linalg.norm(flown - goal, axis=-1)                  # [cand, point]
+        near = np.linalg.norm(p.returns, axis=1) < self._reach + np.hypot(*drift) * self._times[-1] \
+            if len(p.returns) else np.zeros(0, dtype=bool)
+        if near.any():   # each return as seen from the vehicle drifting past it: q - (drift - u) t
+            pts, rel = p.returns[near], p.relative()[near]
+            moved = traj[:, :, None, :] + self._times[None, :, None, None] * rel[None, None]
+            clear_along = np.linalg.norm(moved - pts[None, None], axis=-1).min(axis=2)   # [cand, point]
         else:
-            clear_along = np.full(self._traj.shape[:2], np.inf)
-            clearance = np.full(len(self._traj), np.inf)
-        to_goal = np.linalg.norm(self._traj - goal, axis=-1)            # [cand, point]
+            clear_along = np.full(traj.shape[:2], np.inf)
+        if p.final:   # the mission ends on passing through the goal: what comes after is never flown
+            passed = np.cumsum(to_goal < self.goal_pass, axis=1) > 0
+            after = np.concatenate([np.zeros_like(passed[:, :1]), passed[:, :-1]], axis=1)
+            clear_along = np.where(after, np.inf, clear_along)
+        clearance = clear_along.min(axis=1)
         # Closest approach to the waypoint, counted only along the part flown before getting too close.
-        blocked = clear_along < self.min_clearance
-        to_goal = np.where(np.cumsum(blocked, axis=1) > 0, np.inf, to_goal)
-        score = to_goal.min(axis=1) + self.comfort_weight * np.maximum(0.0, self.comfort - clearance)
-        ok = clearance >= self.min_clearance
-        if ok.any():
-            best = int(np.argmin(np.where(ok, score, np.inf)))
+        blocked = np.cumsum(clear_along < self.min_clearance, axis=1) > 0
+        to_goal = np.where(blocked, np.inf, to_goal)
+        if p.final:
+            progress = self._final_cost(to_goal, flown, goal)
         else:
-            best = int(np.argmax(clearance))     # boxed in: the manoeuvre that keeps farthest away
-        if best == 0 or (ok[0] and abs(err) < self.vehicle.max_turn and score[0] <= score[best] + 0.05):
-            # Straight ahead is as good: steer exactly onto the waypoint bearing when it is open.
-            return float(np.clip(err / self.vehicle.max_turn, -1, 1)) if ok[0] and dist > 0 else 0.0
-        return float(self._first[best])
+            progress = to_goal.min(axis=1)
+        score = progress + self.comfort_weight * np.maximum(0.0, self.comfort - clearance)
+        ok = clearance >= self.min_clearance
+        if not ok.any():
+            return float(firsts[int(np.argmax(clearance))])   # boxed in: the manoeuvre that keeps farthest away
+        best = int(np.argmin(np.where(ok, score, np.inf)))
+        if ok[-1] and score[-1] <= score[best] + 0.05:
+            return a_aim          # flying at the waypoint is as good: do exactly that (no dithering)
+        return float(firsts[best])
+
+    def _final_cost(self, to_goal: np.ndarray, flown: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Metres to the goal for each candidate: where it passes through the goal, the path flown so
+        far; where it does not, the whole rollout plus a lower bound from its end (distance, plus
+        the detour a goal inside the end pose's turning circle needs). Why: the closest approach
+        alone makes circling a goal that lies inside the turning circle look best (orbiting)."""
+        step = 0.5 * self.vehicle.step_length
+        hit = to_goal < self.goal_pass
+        first = np.where(hit.any(axis=1), hit.argmax(axis=1), -1)
+        cost = (first + 1) * step
+        end, end_d = flown[:, -1], to_goal[:, -1]
+        heading = np.arctan2(*(flown[:, -1] - flown[:, -2])[:, ::-1].T)
+        r = self.vehicle.turning_radius
+        side = np.stack([-np.sin(heading), np.cos(heading)], axis=1)                # left normal
+        inside = np.minimum(np.linalg.norm(end + r * side - g, axis=1),
+                            np.linalg.norm(end - r * side - g, axis=1)) < r
+        bearing = np.abs(np.angle(np.exp(1j * (np.arctan2(g[1] - end[:, 1], g[0] - end[:, 0]) - heading))))
+        rest = np.where(np.isfinite(end_d), np.hypot(g[0] - end[:, 0], g[1] - end[:, 1]) + r * bearing
+                        + np.where(inside, 2 * r, 0.0), np.inf)
+        return np.where(first >= 0, cost, flown.shape[1] * step + rest)
+
+    def _aim(self, err: float, drift: np.ndarray) -> float:
+        """Heading change that makes the velocity over ground point at the waypoint (err without drift)."""
+        cross = drift[0] * math.sin(err) - drift[1] * math.cos(err)       # drift x unit(goal direction)
+        return err + math.asin(max(-1.0, min(1.0, cross / self.vehicle.speed)))
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)

@@ -8,6 +8,11 @@ from every sonar return over the next ``horizon`` decisions. If one does, the ac
 the action nearest to the policy's that has such a continuation replaces it, and when no action has
 one, the classical controller's most open manoeuvre does. Pure NumPy and deterministic, so the node
 graph and the offline evaluator shield alike; ``interventions`` counts the overrides.
+
+With a ``Perception`` (``decide``: drift from the DVL, returns moving with their estimated velocity,
+``cage_sim.perception``) the manoeuvres are checked where they will really be flown: a 0.25 m/s
+current moves the vehicle 1.25 m over the 5-decision horizon, more than the margin a still-water
+check leaves. ``act`` (observation only) checks in still water against static returns.
 """
 from __future__ import annotations
 
@@ -17,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .controller import ArcController, Policy, act_rows
+from .perception import Perception
 from .vehicle import decision_step
 
 
@@ -50,30 +56,53 @@ class SafetyShield:
             pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
         return np.array(pts).reshape(-1, 2)
 
-    def safe(self, firsts: np.ndarray, returns: np.ndarray) -> np.ndarray:
-        """For each first action: does some continuation keep min_clearance from all returns?"""
+    def safe(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None) -> np.ndarray:
+        """For each first action: does some continuation keep min_clearance from all returns?
+
+        ``relative``: (K, 2) drift of the vehicle relative to each return (``Perception.relative``),
+        m/s in the body frame; None = still water and static returns."""
+        period = self.fallback.vehicle.decision_period
+        t_first = np.array([0.5, 1.0]) * period
+        t_cont = period + np.tile([0.5, 1.0], self.horizon - 1) * period + \
+            np.repeat(np.arange(self.horizon - 1), 2) * period
+        rel = np.zeros_like(returns) if relative is None else np.asarray(relative, dtype=np.float64)
         out = np.empty(len(firsts), dtype=bool)
         for i, a in enumerate(firsts):
             x1, y1, yaw1 = decision_step(0.0, 0.0, 0.0, float(a), self.fallback.vehicle)
             c, s = math.cos(yaw1), math.sin(yaw1)
             cont = self._cont @ np.array([[c, s], [-s, c]]) + (x1, y1)               # [C, P, 2]
             first = np.array([(0.5 * x1, 0.5 * y1), (x1, y1)])                       # chord points
-            d_first = np.linalg.norm(first[:, None] - returns[None], axis=-1).min()
-            d_cont = np.linalg.norm(cont[:, :, None] - returns[None, None], axis=-1).min(axis=(1, 2))
+            first = first[:, None] + t_first[:, None, None] * rel[None]              # [2, K, 2]
+            cont = cont[:, :, None] + t_cont[None, :, None, None] * rel[None, None]  # [C, P, K, 2]
+            d_first = np.linalg.norm(first - returns[None], axis=-1).min()
+            d_cont = np.linalg.norm(cont - returns[None, None], axis=-1).min(axis=(1, 2))
             out[i] = d_first >= self.min_clearance and bool((d_cont >= self.min_clearance).any())
         return out
 
     def act_one(self, obs: np.ndarray) -> float:
-        a = float(np.clip(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0], -1.0, 1.0))
+        dist, err = self.fallback.layout.waypoint_from(obs)
+        return self.decide(obs, float(dist), float(err), self.fallback.perceive(obs))
+
+    def decide(self, obs: np.ndarray, dist: float, err: float, p: Perception) -> float:
+        """The policy's action for ``obs``, or the nearest safe one given what is perceived."""
+        return self.check(float(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0]), dist, err, p)
+
+    def check(self, action: float, dist: float, err: float, p: Perception) -> float:
+        """``action`` (the policy's, already computed) if it is safe, else the nearest safe one."""
+        a = float(np.clip(action, -1.0, 1.0))
         self.decisions += 1
-        returns = self.fallback.returns(obs, self._reach)
-        if len(returns) == 0 or self.safe(np.array([a]), returns)[0]:
+        drift_reach = float(np.abs(p.relative()).max(initial=0.0)) * self.horizon * \
+            self.fallback.vehicle.decision_period if len(p.returns) else 0.0
+        near = np.linalg.norm(p.returns, axis=1) < self._reach + drift_reach if len(p.returns) else \
+            np.zeros(0, dtype=bool)
+        returns, rel = p.returns[near], p.relative()[near]
+        if len(returns) == 0 or self.safe(np.array([a]), returns, rel)[0]:
             return a
         self.interventions += 1
-        ok = self.safe(self._alternatives, returns)
+        ok = self.safe(self._alternatives, returns, rel)
         if ok.any():
             return float(self._alternatives[ok][np.argmin(np.abs(self._alternatives[ok] - a))])
-        return self.fallback.act_one(obs)
+        return self.fallback.decide(dist, err, p)
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)

@@ -1,0 +1,148 @@
+"""What the shield and the classical baseline know besides the scan: drift and the motion of returns.
+
+Why: a manoeuvre checked in still water is not the manoeuvre flown in a 0.25-0.5 m/s current (the
+vehicle drifts 2.5-5 m over a 10 m rollout), and a fish school that swims 0.5 m/s toward the route is
+not where the last scan saw it. A real AUV knows its velocity over ground (DVL) and its commanded
+velocity through the water, so the drift (their difference) is observable; the motion of returns is
+estimated across consecutive scans (``ReturnMotion``). ``Perception`` carries both, in the body frame
+at the decision, to the rollouts in ``controller`` and ``shield``: a return ``q`` with ground velocity
+``u`` is at ``q + u t`` when the vehicle, flown through the water to ``p(t)``, is at ``p(t) + drift t``;
+so the clearance is ``|p(t) + (drift - u) t - q|``. Pure NumPy, the same code offline and in the node.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _zeros2() -> np.ndarray:
+    return np.zeros(2)
+
+
+@dataclass
+class Perception:
+    """Inputs of one decision, all in the body frame at the decision (x forward, y left)."""
+
+    returns: np.ndarray                                   # (K, 2) sonar returns, m
+    velocities: np.ndarray | None = None                  # (K, 2) their velocity over ground, m/s (None: static)
+    drift: np.ndarray = field(default_factory=_zeros2)   # (2,) velocity over ground - through-water velocity, m/s
+    final: bool = False                                   # the waypoint is the mission's goal (the mission
+    #                                                       ends on passing through it: nothing after matters)
+
+    def relative(self) -> np.ndarray:
+        """(K, 2) velocity of the vehicle's drift relative to each return: ``drift - u``."""
+        u = self.velocities if self.velocities is not None else np.zeros_like(self.returns)
+        return np.asarray(self.drift, dtype=np.float64)[None, :] - u
+
+
+def body_drift(v_ground_body, speed: float) -> np.ndarray:
+    """Drift from a DVL reading: velocity over ground (body frame) minus the commanded (speed, 0)."""
+    v = np.asarray(v_ground_body, dtype=np.float64).reshape(2)
+    if not np.isfinite(v).all():
+        return np.zeros(2)
+    return v - np.array([speed, 0.0])
+
+
+def to_body(vec_map, yaw: float) -> np.ndarray:
+    """A map-frame vector expressed in the body frame of a vehicle at heading ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    v = np.asarray(vec_map, dtype=np.float64)
+    return np.stack([c * v[..., 0] + s * v[..., 1], -s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def to_map(points_body, pose) -> np.ndarray:
+    """Body-frame points to the map frame of a vehicle at ``pose`` (x, y, yaw)."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    p = np.asarray(points_body, dtype=np.float64).reshape(-1, 2)
+    return np.stack([x + c * p[:, 0] - s * p[:, 1], y + s * p[:, 0] + c * p[:, 1]], axis=1)
+
+
+@dataclass
+class ReturnMotion:
+    """Velocity over ground of each return, from two consecutive scans (stateful, one per vehicle).
+
+    Returns are grouped into clusters (neighbouring beams whose points lie within ``join`` m). A
+    cluster whose points lie on the previous scan's surface (median distance to the polyline through
+    the previous scan's points, map frame, below ``still``) is static: the visible part of a static
+    obstacle or of the net shifts as the vehicle moves, so a centroid shift alone would make it
+    "move". Otherwise the cluster is matched to the nearest previous centroid within ``gate`` m and
+    its centroid's displacement over the elapsed time is its velocity; speeds below ``min_speed`` or
+    above ``max_speed`` (a wrong match) count as 0.
+    """
+
+    join: float = 1.0
+    gate: float = 2.0
+    still: float = 0.15
+    min_speed: float = 0.15
+    max_speed: float = 2.0
+    _prev: np.ndarray | None = None        # (N, 2) map-frame points of the previous scan
+    _prev_labels: np.ndarray | None = None
+    _prev_t: float = 0.0
+
+    def reset(self) -> None:
+        self._prev = None
+
+    def update(self, points_body: np.ndarray, pose, t: float) -> np.ndarray:
+        """(K, 2) body-frame velocity over ground of each of ``points_body`` (in beam order)."""
+        pts = np.asarray(points_body, dtype=np.float64).reshape(-1, 2)
+        vel = np.zeros_like(pts)
+        world = to_map(pts, pose)
+        labels = self._clusters(world)
+        prev, prev_labels, dt = self._prev, self._prev_labels, t - self._prev_t
+        self._prev, self._prev_labels, self._prev_t = world, labels, t
+        if prev is None or len(prev) == 0 or len(pts) == 0 or dt <= 0:
+            return vel
+        a, b = self._segments(prev, prev_labels)
+        prev_cents = np.array([prev[prev_labels == k].mean(axis=0) for k in range(prev_labels.max() + 1)])
+        for k in range(labels.max() + 1):
+            members = world[labels == k]
+            if np.median(_point_segment_distance(members, a, b)) <= self.still:
+                continue
+            c = members.mean(axis=0)
+            d = np.linalg.norm(prev_cents - c, axis=1)
+            j = int(np.argmin(d))
+            if d[j] <= self.gate:
+                v = (c - prev_cents[j]) / dt
+                if self.min_speed <= float(np.hypot(*v)) <= self.max_speed:
+                    vel[labels == k] = to_body(v, pose[2])
+        return vel
+
+    def _segments(self, pts: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Segments joining consecutive points of one cluster (single points: zero-length)."""
+        same = labels[1:] == labels[:-1]
+        a = np.concatenate([pts[:-1][same], pts])
+        b = np.concatenate([pts[1:][same], pts])
+        return a, b
+
+    def _clusters(self, pts: np.ndarray) -> np.ndarray:
+        """Label points in beam order: a new cluster starts where a point is > join from the last."""
+        labels = np.zeros(len(pts), dtype=int)
+        if len(pts) == 0:
+            return labels
+        labels[1:] = np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1) > self.join)
+        if len(pts) > 2 and labels[-1] > 0 and np.hypot(*(pts[0] - pts[-1])) <= self.join:
+            labels[labels == labels[-1]] = 0                     # a 360 deg scan wraps around
+        _, labels = np.unique(labels, return_inverse=True)
+        return labels
+
+
+def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N,) distance from each point to the nearest of the segments a[i]-b[i]."""
+    ab = b - a
+    n2 = np.maximum((ab * ab).sum(axis=1), 1e-12)
+    s = np.clip(((p[:, None] - a[None]) * ab[None]).sum(axis=-1) / n2, 0.0, 1.0)   # [N, S]
+    return np.linalg.norm(p[:, None] - (a[None] + s[..., None] * ab[None]), axis=-1).min(axis=1)
+
+
+def perceive(returns_body: np.ndarray, pose, t: float, drift_body=None, final: bool = False,
+             motion: ReturnMotion | None = None) -> Perception:
+    """One decision's ``Perception``: the scan's returns (body frame), their velocities estimated by
+    ``motion`` against the previous scan (None: taken as static), the drift (body frame, m/s) and
+    whether the waypoint is the goal. The evaluator and the policy node both build it this way."""
+    pts = np.asarray(returns_body, dtype=np.float64).reshape(-1, 2)
+    vel = motion.update(pts, pose, t) if motion is not None else None
+    drift = np.zeros(2) if drift_body is None else np.asarray(drift_body, dtype=np.float64).reshape(2)
+    return Perception(pts, vel, np.where(np.isfinite(drift), drift, 0.0), bool(final))
