@@ -1,4 +1,5 @@
-"""The sea-cage world: a circular net, known and unknown obstacles, moving obstacles and a current.
+"""The sea-cage world: a net (circle, or deformed by the current), known and unknown obstacles, moving
+obstacles, fish schools and a current field.
 
 One definition of the geometry that the simulator, the sonar, the planner's map and the gym
 environments all share. Pure NumPy/`math`, no ROS.
@@ -6,6 +7,10 @@ environments all share. Pure NumPy/`math`, no ROS.
 Conventions: map frame ENU, metres, net centred on the origin. A square is axis-aligned and its
 ``size`` is the side length; a circle's ``size`` is its radius. A moving obstacle oscillates about its
 centre: ``centre(t) = (x, y) + (ax, ay) * sin(2*pi*t/period)`` (a fish school drifting to and fro).
+Fish schools that react to the vehicle are stateful (fish.py): a ``World`` describes them, and the
+episode's ``FishState`` positions enter a snapshot ``world.with_fish(state.circles())`` that the sonar and
+the collision test use. The net the sonar and collision see is ``world.net`` (net.py); the planner's
+``known_map()`` keeps the nominal circle.
 """
 from __future__ import annotations
 
@@ -14,6 +19,10 @@ from dataclasses import dataclass, field, replace
 from typing import Iterable, Literal, Sequence
 
 import numpy as np
+
+from .current import CurrentField, CurrentMode
+from .fish import FishSchool
+from .net import NetShape
 
 Shape = Literal["square", "circle"]
 SHAPES: tuple[str, ...] = ("square", "circle")
@@ -99,13 +108,21 @@ def pack(obstacles: Iterable[Obstacle], t: float = 0.0) -> ObstacleArrays:
 @dataclass(frozen=True)
 class World:
     """The cage: net circle, obstacles on the map (``known``), obstacles only the sonar sees
-    (``unknown``), a uniform water current (m/s, map frame) and the collision safety radius."""
+    (``unknown``), a uniform water current (m/s, map frame, inside the pen) and the collision safety
+    radius; optionally slowly varying current modes (capped at ``current_cap``), a net deformation
+    (``net_loss``: area fraction lost, None = from the current, net.py) and fish schools.
+    ``fish``: (K, 3) circles of the schools at this instant (set by ``with_fish``)."""
 
     net_radius: float = 30.0
     known: tuple[Obstacle, ...] = ()
     unknown: tuple[Obstacle, ...] = ()
     current: tuple[float, float] = (0.0, 0.0)
     safety_radius: float = 0.5
+    current_modes: tuple[CurrentMode, ...] = ()
+    current_cap: float = math.inf
+    net_loss: float | None = 0.0
+    schools: tuple[FishSchool, ...] = ()
+    fish: np.ndarray | None = field(default=None, compare=False, repr=False)
     _static: ObstacleArrays | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -116,31 +133,67 @@ class World:
         object.__setattr__(self, "known", tuple(self.known))
         object.__setattr__(self, "unknown", tuple(self.unknown))
         object.__setattr__(self, "current", (float(self.current[0]), float(self.current[1])))
+        object.__setattr__(self, "current_modes", tuple(self.current_modes))
+        object.__setattr__(self, "schools", tuple(self.schools))
+        object.__setattr__(self, "_current_field", CurrentField(self.current, self.current_modes, self.current_cap))
+        object.__setattr__(self, "_net", NetShape.from_current(self.net_radius, self.current, self.net_loss))
+        fish = np.zeros((0, 3)) if self.fish is None else np.asarray(self.fish, dtype=np.float64).reshape(-1, 3)
+        if self.fish is None and self.schools:
+            fish = np.array([[s.x, s.y, s.radius] for s in self.schools], dtype=np.float64)
+        object.__setattr__(self, "_fish", fish)
+        object.__setattr__(self, "_static", None)
         if not any(ob.moving for ob in self.obstacles):
-            object.__setattr__(self, "_static", pack(self.obstacles))
+            object.__setattr__(self, "_static", self._with_fish(pack(self.obstacles)))
+
+    def _with_fish(self, arrs: ObstacleArrays) -> ObstacleArrays:
+        if not len(self._fish):
+            return arrs
+        return ObstacleArrays(arrs.squares, np.ascontiguousarray(np.concatenate([arrs.circles, self._fish])))
+
+    @property
+    def current_field(self) -> CurrentField:
+        return self._current_field
+
+    @property
+    def net(self) -> NetShape:
+        """The wall the sonar and the collision test see (the nominal circle unless deformed)."""
+        return self._net
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:
-        """Everything the sonar can see: known and unknown obstacles."""
+        """Everything the sonar can see: known and unknown obstacles (fish schools: ``fish_circles``)."""
         return self.known + self.unknown
+
+    @property
+    def fish_circles(self) -> np.ndarray:
+        """(K, 3) circles of the fish schools as placed in this snapshot."""
+        return self._fish
 
     @property
     def has_moving(self) -> bool:
         return self._static is None
 
+    def with_fish(self, circles: np.ndarray) -> "World":
+        """This world with the schools at ``circles`` ((K, 3) rows of cx, cy, radius): a snapshot."""
+        return replace(self, fish=np.asarray(circles, dtype=np.float64).reshape(-1, 3))
+
     def arrays(self, t: float = 0.0) -> ObstacleArrays:
         """All obstacles packed for the sonar at time ``t`` (cached when nothing moves)."""
-        return self._static if self._static is not None else pack(self.obstacles, t)
+        return self._static if self._static is not None else self._with_fish(pack(self.obstacles, t))
 
     def known_map(self) -> "World":
-        """What the global planner may use: the net and the known obstacles only."""
+        """What the global planner may use: the nominal net circle and the known obstacles only."""
         return World(self.net_radius, self.known, (), self.current, self.safety_radius)
 
     def clearance(self, x: float, y: float, t: float = 0.0) -> float:
         """Distance from a point to the nearest boundary (net or obstacle); negative inside one."""
-        best = self.net_radius - math.hypot(x, y)
+        best = self._net.clearance(x, y)
         for ob in self.obstacles:
             d = ob.distance(x, y, t)
+            if d < best:
+                best = d
+        for cx, cy, r in self._fish:
+            d = math.hypot(x - cx, y - cy) - r
             if d < best:
                 best = d
         return best
@@ -150,7 +203,10 @@ class World:
         return self.clearance(x, y, t) < self.safety_radius
 
     def inside_net(self, x: float, y: float, margin: float = 0.0) -> bool:
-        return math.hypot(x, y) <= self.net_radius - margin
+        """Inside the wall the sonar sees (deformed or not), at least ``margin`` from it."""
+        if not self._net.deformed:
+            return math.hypot(x, y) <= self.net_radius - margin
+        return self._net.clearance(x, y) >= margin
 
 
 def segment_clearance(world: World, points: Sequence[Sequence[float]], resolution: float = 0.1,
