@@ -6,9 +6,13 @@ keyword construction, attribute assignment of plain lists, tuples or numpy array
 attributes, `__eq__` and a readable `__repr__`.  The wire encoding is delegated to rosbags' CDR serializer
 (XCDR1, the same bytes rmw_cyclonedds_cpp sends); this module only converts between the two object models.
 
+Defaults are rosidl's: zero/empty unless the interface file gives a default (`float64 w 1.0` in
+geometry_msgs/Quaternion), see :func:`cage_ros_runtime.typestore.field_defaults`.
+
 Deliberate simplifications against rclpy (documented in runtime/README.md):
 - no per-assignment type checks; a wrong value is reported when the message is serialized (publish);
-- `char` and `byte` fields are plain ints (rclpy: str of length 1 / bytes of length 1);
+- `char` and `byte` fields are plain ints 0..255 (rclpy: str of length 1 / bytes of length 1); `byte` is
+  unsigned on both sides (rosbags' codec reads it as int8, converted here);
 - after deserialization numeric sequences are `array.array` and fixed-size numeric arrays `numpy.ndarray`
   (as in rclpy); `bool[]` and `string[]` are lists.
 """
@@ -22,7 +26,7 @@ from typing import Any
 import numpy as np
 from rosbags.typesys.base import Nodetype
 
-from cage_ros_runtime.typestore import typestore
+from cage_ros_runtime.typestore import field_defaults, typestore
 
 #: rosbags' placeholder member of empty messages (rosidl adds one too); hidden from the Python API.
 EMPTY_MEMBER = 'structure_needs_at_least_one_member'
@@ -45,10 +49,11 @@ _IDL_NAME = {
 class Field:
     """One member of a message type, with what is needed to default, convert and describe it."""
 
-    __slots__ = ('name', 'kind', 'base', 'bound', 'length', 'ref')
+    __slots__ = ('name', 'kind', 'base', 'bound', 'length', 'ref', 'explicit')
 
-    def __init__(self, name: str, desc: tuple) -> None:
+    def __init__(self, name: str, desc: tuple, explicit: Any = None) -> None:
         self.name = name
+        self.explicit = explicit       # default written in the interface file, if any
         self.kind, arg = desc
         self.base: str | None = None   # primitive name for BASE and for ARRAY/SEQUENCE of BASE
         self.ref: str | None = None    # message type for NAME and for ARRAY/SEQUENCE of NAME
@@ -75,6 +80,8 @@ class Field:
 
     def default(self) -> Any:
         """The rclpy default for this member (fresh object every call)."""
+        if self.explicit is not None:
+            return self._explicit_default()
         if self.kind == Nodetype.BASE:
             if self.base == 'string':
                 return ''
@@ -92,6 +99,16 @@ class Field:
         if self.ref is not None or self.base in ('string', 'bool'):
             return []
         return array.array(_ARRAY_TYPECODE[self.base])
+
+    def _explicit_default(self) -> Any:
+        value = self.explicit
+        if self.kind == Nodetype.BASE:
+            return value
+        if self.kind == Nodetype.ARRAY and self.base not in (None, 'string'):
+            return np.array(value, dtype=_NUMPY_DTYPE[self.base])
+        if self.base in (None, 'string', 'bool'):
+            return list(value)
+        return array.array(_ARRAY_TYPECODE[self.base], value)
 
     def type_string(self) -> str:
         """rclpy's `get_fields_and_field_types()` spelling, e.g. `sequence<float>` or `std_msgs/Header`."""
@@ -144,9 +161,9 @@ class Message:
     __hash__ = None  # mutable, like rclpy's messages
 
     def __repr__(self) -> str:
-        pkg, _, name = self._type.split('/')
+        pkg, kind, name = self._type.split('/')
         args = ', '.join(f'{f.name}={getattr(self, f.name)!r}' for f in self._fields)
-        return f'{pkg}.msg.{name}({args})'
+        return f'{pkg}.{kind}.{name}({args})'
 
     def __copy__(self) -> 'Message':
         new = self.__class__.__new__(self.__class__)
@@ -162,11 +179,12 @@ def message_class(ros_type: str) -> type[Message]:
     if ros_type not in store.fielddefs:
         raise ImportError(f'unknown message type {ros_type!r}')
     consts, fielddefs = store.fielddefs[ros_type]
-    fields = tuple(Field(name, desc) for name, desc in fielddefs if name != EMPTY_MEMBER)
-    pkg, _, name = ros_type.split('/')
+    defaults = field_defaults(ros_type)
+    fields = tuple(Field(name, desc, defaults.get(name)) for name, desc in fielddefs if name != EMPTY_MEMBER)
+    pkg, kind, name = ros_type.split('/')
     namespace: dict[str, Any] = {
         '__slots__': tuple(f.name for f in fields),
-        '__module__': f'{pkg}.msg',
+        '__module__': f'{pkg}.{kind}',
         '__qualname__': name,
         '_type': ros_type,
         '_fields': fields,
@@ -188,6 +206,11 @@ def _to_store_value(f: Field, value: Any) -> Any:
             return value
         if f.base == 'bool':
             return bool(value)
+        if f.base == 'byte':
+            value = int(value)
+            if not 0 <= value <= 255:
+                raise ValueError(f'field {f.name!r} (byte) must be in [0, 255], got {value}')
+            return value - 256 if value > 127 else value  # rosbags packs byte as int8
         return float(value) if f.base.startswith('float') else int(value)
     if f.kind == Nodetype.NAME:
         return to_store(value)
@@ -221,7 +244,7 @@ def to_store(msg: Message) -> object:
 
 def _from_store_value(f: Field, value: Any) -> Any:
     if f.kind == Nodetype.BASE:
-        return value
+        return value & 0xFF if f.base == 'byte' else value
     if f.kind == Nodetype.NAME:
         return from_store(value)
     if f.ref is not None:
