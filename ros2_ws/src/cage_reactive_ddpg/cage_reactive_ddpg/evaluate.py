@@ -5,6 +5,11 @@ episode is fully determined by its scenario (``missions.episode_scenarios``), so
 same as running them one by one, and the policy and the baseline meet the same episodes.
 
   evaluate --scenario study2d --episodes 1000 --seed 1 --policy baseline --json out.json --plot out.png
+  evaluate --matrix sea --episodes 200 --seed 2026 --out docs/results/matrix_sea --plot docs/figures/matrix_sea.png
+
+``--matrix`` (named in ``matrix.MATRICES`` or a YAML file) runs the raw policy, the shielded policy
+and the classical baseline side by side on the same missions of every sea-condition cell and writes
+a markdown table, a CSV and a JSON (``--out`` prefix) and a PNG (``--plot``), with 95 % Wilson intervals.
 """
 from __future__ import annotations
 
@@ -204,7 +209,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--matrix", default=None, help="sea-condition matrix: a name (sea, sea_small, tiny) or a YAML file")
+    ap.add_argument("--drivers", default="raw,shield,baseline",
+                    help="with --matrix: which of raw, shield, baseline to run (comma-separated)")
+    ap.add_argument("--out", default=None, help="with --matrix: output prefix for .md/.csv/.json "
+                                                "(default out/matrix_<name>)")
     a = ap.parse_args(argv)
+    if a.matrix:
+        return matrix_main(a)
     try:   # a missing or mismatched policy, a bad scenario: one clear line, no traceback
         driver, name, meta = load_driver(a.policy, a.shield == "on")
         motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
@@ -221,6 +233,45 @@ def main(argv: list[str] | None = None) -> int:
         Path(a.json).write_text(json.dumps(summary, indent=2))
     if a.plot:
         plot_tracks(a.plot, scs, res, f"{name} on {a.scenario}")
+    return 0
+
+
+def matrix_main(a: argparse.Namespace) -> int:
+    """``--matrix``: every chosen driver on every cell; tables, CSV, JSON and PNG."""
+    from . import matrix as mx
+    try:
+        name, cells = mx.load_matrix(a.matrix)
+        wanted = [d.strip() for d in a.drivers.split(",") if d.strip()]
+        bad = sorted(set(wanted) - {"raw", "shield", "baseline"})
+        if bad:
+            raise ValueError(f"--drivers: unknown {bad} (raw, shield, baseline)")
+        drivers, meta = {}, None
+        for d in wanted:
+            if d == "baseline":
+                drivers[d] = ArcController()
+            else:
+                drv, _, meta = load_driver(a.policy, shield=(d == "shield"))
+                drivers[d] = drv
+        motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
+        rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, motion, progress=not a.quiet)
+    except (ValueError, OSError, RuntimeError) as err:
+        print(f"evaluate: {err}", file=sys.stderr)
+        return 2
+    prefix = Path(a.out or f"out/matrix_{name}")
+    prefix.parent.mkdir(parents=True, exist_ok=True)
+    policy = str(a.policy or "shipped policy")
+    title = (f"matrix {name}: {a.episodes} missions per cell, seed {a.seed}, planner {a.planner}, "
+             f"policy {Path(policy).name}")
+    md = mx.markdown(rows, title)
+    print(md)
+    prefix.with_suffix(".md").write_text(md)
+    mx.write_csv(rows, prefix.with_suffix(".csv"))
+    prefix.with_suffix(".json").write_text(json.dumps(
+        {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
+         "policy": policy, "rows": rows}, indent=1))
+    if a.plot:
+        Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
+        mx.plot(rows, a.plot, title)
     return 0
 
 

@@ -17,7 +17,11 @@ WaypointFn = Callable[[Scenario], Sequence[Sequence[float]] | None]
 
 
 def parse_mix(spec: str) -> list[tuple[str, float]]:
-    """``"a:0.7,b:0.3"`` -> [(a, .7), (b, .3)]; a plain name or file -> [(spec, 1)]."""
+    """``"a:0.7,b:0.3"`` -> [(a, .7), (b, .3)]; a plain name or file -> [(spec, 1)].
+
+    A sea cell ``sea:current=0.25,obstacles=small`` is one name (its commas are not a mix)."""
+    if spec.startswith("sea:"):
+        return [(spec, 1.0)]
     parts = [p.strip() for p in spec.split(",") if p.strip()]
     if len(parts) == 1 and ":" not in parts[0]:
         return [(parts[0], 1.0)]
@@ -32,8 +36,9 @@ def parse_mix(spec: str) -> list[tuple[str, float]]:
 
 def sampler(spec: str) -> Sampler:
     """A scenario sampler for a spec (name, file or weighted mix)."""
+    from .matrix import family_sampler
     mix = parse_mix(spec)
-    samplers = [scenario_sampler(name) for name, _ in mix]
+    samplers = [family_sampler(name) or scenario_sampler(name) for name, _ in mix]
     if len(samplers) == 1:
         return samplers[0]
     w = np.array([wt for _, wt in mix], dtype=float)

@@ -1,0 +1,287 @@
+"""Sea conditions: scenario families for domain randomisation and the evaluation matrix.
+
+Why one module: the trainer's randomisation and the evaluator's matrix must draw their missions from
+the same generator, or a policy is scored on conditions it never met in a different way than it met
+them. A ``Condition`` is one cell: current speed (m/s, random direction), obstacle size (``standard``:
+the cage's 0.3-2 m obstacles; ``small``: circles of 0.15-0.3 m radius, between the study's 5 deg
+beams beyond ~2-3 m), goal placement (``any``, or ``near_net``: 2.5 m from the net wall) and the
+number of moving fish schools. Scenario names (usable wherever a scenario spec is, e.g. ``train
+--scenario`` and ``evaluate --scenario``):
+
+  sea:current=0.25,obstacles=small,goal=near_net,schools=3   one cell (keys optional; ``;`` also separates)
+  sea_dr                                                     domain randomisation: each mission draws
+                                                             current U(0, 0.5), small obstacles (50 %),
+                                                             goal near the net (30 %), 0-3 schools
+  sea_hard                                                   the hardest corner, oversampled in training
+
+A matrix (``evaluate --matrix NAME``) is a list of cells; ``MATRICES`` holds the named ones.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from cage_sim.scenarios import CageParams, Sampler, Scenario, generate_cage
+from cage_sim.world import Obstacle, World
+
+OBSTACLES = ("standard", "small")
+GOALS = ("any", "near_net")
+NEAR_NET = 2.5          # m from the net wall: the issue's "goal near the net"
+SMALL = (0.15, 0.3)     # m radius of small obstacles
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One cell of the matrix (see the module docstring)."""
+
+    current: float = 0.0
+    obstacles: str = "standard"
+    goal: str = "any"
+    schools: int = 0
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.current < 1.0):
+            raise ValueError(f"current: {self.current!r} m/s must be in [0, 1) (the vehicle does 1 m/s)")
+        if self.obstacles not in OBSTACLES:
+            raise ValueError(f"obstacles: {self.obstacles!r} is not one of {OBSTACLES}")
+        if self.goal not in GOALS:
+            raise ValueError(f"goal: {self.goal!r} is not one of {GOALS}")
+        if not (0 <= self.schools <= 6):
+            raise ValueError(f"schools: {self.schools!r} must be 0-6")
+
+    @property
+    def name(self) -> str:
+        return f"sea:current={self.current:g},obstacles={self.obstacles},goal={self.goal},schools={self.schools}"
+
+    def sample(self, rng: np.random.Generator) -> Scenario:
+        return sea_scenario(rng, self)
+
+
+def parse_condition(spec: str) -> Condition:
+    """``sea:current=0.25,obstacles=small`` (or ``;``-separated) -> Condition; errors name the key."""
+    body = spec.split(":", 1)[1] if ":" in spec else ""
+    kw: dict = {}
+    for item in filter(None, (p.strip() for p in body.replace(";", ",").split(","))):
+        key, eq, val = item.partition("=")
+        if not eq:
+            raise ValueError(f"{spec}: expected key=value, got {item!r}")
+        if key == "current":
+            kw[key] = float(val)
+        elif key == "schools":
+            kw[key] = int(val)
+        elif key in ("obstacles", "goal"):
+            kw[key] = val
+        else:
+            raise ValueError(f"{key}: unknown sea condition key (current, obstacles, goal, schools)")
+    return Condition(**kw)
+
+
+def _small_obstacles(rng: np.random.Generator, world: World) -> World:
+    """The same layout with every unknown static obstacle replaced by a 0.15-0.3 m circle."""
+    unknown = tuple(o if o.moving else Obstacle("circle", o.x, o.y, float(rng.uniform(*SMALL)))
+                    for o in world.unknown)
+    return replace(world, unknown=unknown)
+
+
+def _goal_near_net(rng: np.random.Generator, sc: Scenario, min_route: float = 15.0) -> Scenario | None:
+    """Move the goal to NEAR_NET m from the net wall, clear of obstacles; None if no place is found."""
+    w = sc.world
+    r = w.net_radius - NEAR_NET
+    for _ in range(200):
+        a = rng.uniform(-math.pi, math.pi)
+        g = (r * math.cos(a), r * math.sin(a))
+        if math.dist(g, sc.start[:2]) >= min_route and w.clearance(*g) >= 2.0:
+            return replace(sc, goal=g, waypoints=None)
+    return None
+
+
+def sea_scenario(rng: np.random.Generator, c: Condition) -> Scenario:
+    """A full-cage mission (20 known squares, 10 unknown obstacles) under condition ``c``."""
+    for _ in range(100):
+        sc = generate_cage(rng, CageParams(n_moving=c.schools, current_speed=c.current), c.name)
+        if c.obstacles == "small":
+            sc = replace(sc, world=_small_obstacles(rng, sc.world))
+        if c.goal == "near_net":
+            sc = _goal_near_net(rng, sc)
+            if sc is None:
+                continue
+        return sc
+    raise RuntimeError(f"could not place a scenario for {c.name}")
+
+
+def domain_randomised(rng: np.random.Generator) -> Scenario:
+    """``sea_dr``: every mission draws its own condition (see the module docstring)."""
+    c = Condition(current=float(rng.uniform(0.0, 0.5)),
+                  obstacles="small" if rng.random() < 0.5 else "standard",
+                  goal="near_net" if rng.random() < 0.3 else "any",
+                  schools=int(rng.integers(0, 4)))
+    return sea_scenario(rng, c)
+
+
+def hard(rng: np.random.Generator) -> Scenario:
+    """``sea_hard``: strong current, small obstacles, goal near the net or schools."""
+    c = Condition(current=float(rng.uniform(0.3, 0.5)), obstacles="small",
+                  goal="near_net" if rng.random() < 0.5 else "any", schools=int(rng.integers(0, 4)))
+    return sea_scenario(rng, c)
+
+
+FAMILIES: dict[str, Sampler] = {"sea_dr": domain_randomised, "sea_hard": hard}
+
+
+def family_sampler(name: str) -> Sampler | None:
+    """The sampler for a sea family name or a ``sea:...`` cell, else None (not a sea name)."""
+    if name in FAMILIES:
+        return FAMILIES[name]
+    if name == "sea" or name.startswith("sea:"):
+        return parse_condition(name).sample
+    return None
+
+
+def grid(currents=(0.0, 0.25, 0.5), obstacles=OBSTACLES, goals=GOALS, schools=(0, 3)) -> list[Condition]:
+    return [Condition(c, o, g, s) for c, o, g, s in itertools.product(currents, obstacles, goals, schools)]
+
+
+MATRICES: dict[str, list[Condition]] = {
+    "sea": grid(),                                                         # 24 cells
+    "sea_small": grid(currents=(0.0, 0.5), goals=("any",), schools=(0,)) +  # 4 + 4 cells: the corners
+    grid(currents=(0.25,), obstacles=("small",), goals=GOALS, schools=(0, 3)),
+    "tiny": [Condition(), Condition(0.5, "small", "near_net", 1)],
+}
+
+
+# --------------------------------------------------------------------------- the evaluation matrix
+
+def load_matrix(spec: str) -> tuple[str, list[Condition]]:
+    """A named matrix (``MATRICES``) or a YAML file: a list of cells ``{current, obstacles, goal,
+    schools}``, or a grid ``{currents: [...], obstacles: [...], goals: [...], schools: [...]}``."""
+    if spec in MATRICES:
+        return spec, MATRICES[spec]
+    from pathlib import Path
+
+    import yaml
+    p = Path(spec)
+    if not p.is_file():
+        raise ValueError(f"matrix: {spec!r} is neither a named matrix ({', '.join(MATRICES)}) nor a file")
+    data = yaml.safe_load(p.read_text())
+    if isinstance(data, dict):
+        bad = set(data) - {"currents", "obstacles", "goals", "schools"}
+        if bad:
+            raise ValueError(f"matrix {p}: unknown key(s) {sorted(bad)}")
+        return p.stem, grid(**{k: tuple(v) for k, v in data.items()})
+    if isinstance(data, list):
+        cells = []
+        for i, d in enumerate(data):
+            try:
+                cells.append(Condition(**d))
+            except TypeError as err:
+                raise ValueError(f"matrix {p}: cell {i}: {err}") from None
+        return p.stem, cells
+    raise ValueError(f"matrix {p}: expected a list of cells or a grid mapping")
+
+
+def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
+               motion: str = "continuous", progress: bool = False) -> list[dict]:
+    """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver).
+
+    Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
+    in effect), so drivers meet identical missions and cells never share one."""
+    from cage_sim.mission import EnvConfig
+
+    from .evaluate import run_missions, summarize
+    from .missions import waypoint_fn
+    routes = waypoint_fn(planner)
+    rows = []
+    for k, cell in enumerate(cells):
+        scs = []
+        for i in range(episodes):
+            sc = cell.sample(np.random.default_rng([seed, k, i]))
+            if routes is not None:
+                wps = routes(sc)
+                if wps is not None and len(wps):
+                    sc = sc.with_waypoints(wps)
+            scs.append(sc)
+        for dname, drv in drivers.items():
+            s = summarize(run_missions(drv, scs, EnvConfig(motion=motion), progress=progress))
+            rows.append({"cell": k, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
+                         "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
+                         "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"]})
+            if progress:
+                print(f"cell {k} {cell.name} {dname}: " + " ".join(
+                    f"{o} {100 * s['rates'][o]:.1f}%" for o in s["rates"]), flush=True)
+    return rows
+
+
+def _pct(k: int, n: int) -> str:
+    from .evaluate import wilson
+    lo, hi = wilson(k, n)
+    return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+
+def markdown(rows: list[dict], title: str) -> str:
+    """The matrix as a markdown table: goal and collision % with 95 % Wilson intervals per driver."""
+    drivers = list(dict.fromkeys(r["driver"] for r in rows))
+    head = "| current m/s | obstacles | goal | schools | " + " | ".join(
+        f"{d}: goal % | {d}: collision %" for d in drivers) + " |"
+    lines = [f"### {title}", "", head, "|" + "---|" * (4 + 2 * len(drivers))]
+    for k in dict.fromkeys(r["cell"] for r in rows):
+        rs = {r["driver"]: r for r in rows if r["cell"] == k}
+        r0 = next(iter(rs.values()))
+        cells = [f"{r0['current']:g}", r0["obstacles"], r0["goal_at"], str(r0["schools"])]
+        for d in drivers:
+            r = rs[d]
+            cells += [_pct(r["goal"], r["episodes"]), _pct(r["collision"], r["episodes"])]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_csv(rows: list[dict], path) -> None:
+    import csv
+
+    from .evaluate import wilson
+    cols = ["cell", "current", "obstacles", "goal_at", "schools", "driver", "episodes", "goal_n", "collision_n",
+            "wander_n", "timeout_n", "goal_pct", "goal_lo", "goal_hi", "collision_pct", "collision_lo", "collision_hi"]
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for r in rows:
+            n = r["episodes"]
+            g, c = wilson(r["goal"], n), wilson(r["collision"], n)
+            w.writerow([r["cell"], r["current"], r["obstacles"], r["goal_at"], r["schools"], r["driver"], n,
+                        r["goal"], r["collision"], r["wander"], r["timeout"],
+                        round(100 * r["goal"] / n, 2), round(100 * g[0], 2), round(100 * g[1], 2),
+                        round(100 * r["collision"] / n, 2), round(100 * c[0], 2), round(100 * c[1], 2)])
+
+
+def plot(rows: list[dict], path, title: str) -> None:
+    """Goal and collision rates per cell, drivers side by side, with 95 % Wilson intervals."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .evaluate import wilson
+    drivers = list(dict.fromkeys(r["driver"] for r in rows))
+    cells = list(dict.fromkeys(r["cell"] for r in rows))
+    labels = []
+    for k in cells:
+        r = next(r for r in rows if r["cell"] == k)
+        labels.append(f"{r['current']:g} m/s, {r['obstacles']}, goal {r['goal_at']}, {r['schools']} sch.")
+    fig, axes = plt.subplots(1, 2, figsize=(14, 0.42 * len(cells) + 1.8), sharey=True)
+    width = 0.8 / len(drivers)
+    for ax, outcome in zip(axes, ("goal", "collision")):
+        for j, d in enumerate(drivers):
+            rs = [next(r for r in rows if r["cell"] == k and r["driver"] == d) for k in cells]
+            p = np.array([100 * r[outcome] / r["episodes"] for r in rs])
+            ci = np.array([wilson(r[outcome], r["episodes"]) for r in rs]) * 100
+            y = np.arange(len(cells)) + (j - (len(drivers) - 1) / 2) * width
+            ax.barh(y, p, height=width, label=d, xerr=[p - ci[:, 0], ci[:, 1] - p], capsize=2)
+        ax.set_title(f"{outcome} % (95 % Wilson)")
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(np.arange(len(cells)), labels, fontsize=8)
+    axes[0].invert_yaxis()
+    axes[1].legend(loc="lower right", fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

@@ -1,0 +1,51 @@
+"""Sea conditions and the evaluation matrix: cells draw what they say, the CLI writes its tables."""
+import json
+
+import numpy as np
+import pytest
+
+from cage_reactive_ddpg.evaluate import main
+from cage_reactive_ddpg.matrix import NEAR_NET, Condition, parse_condition
+from cage_reactive_ddpg.missions import episode_scenarios
+
+
+def test_a_cell_draws_its_conditions():
+    c = parse_condition("sea:current=0.5,obstacles=small,goal=near_net,schools=2")
+    assert c == Condition(0.5, "small", "near_net", 2)
+    for sc in episode_scenarios(c.name, 5, seed=1):
+        w = sc.world
+        assert np.isclose(np.hypot(*w.current), 0.5)
+        assert np.isclose(np.hypot(*sc.goal), w.net_radius - NEAR_NET)
+        static = [o for o in w.unknown if not o.moving]
+        assert static and all(o.shape == "circle" and 0.15 <= o.size <= 0.3 for o in static)
+        assert sum(o.moving for o in w.unknown) == 2
+
+
+def test_bad_cells_are_refused_naming_the_key():
+    with pytest.raises(ValueError, match="current"):
+        parse_condition("sea:current=1.2")
+    with pytest.raises(ValueError, match="colour: unknown sea condition key"):
+        parse_condition("sea:colour=red")
+    with pytest.raises(ValueError, match="obstacles"):
+        Condition(obstacles="huge")
+
+
+def test_cli_tiny_matrix_writes_tables_and_figure(tmp_path, capsys):
+    prefix, png = tmp_path / "m", tmp_path / "m.png"
+    assert main(["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--policy", "baseline",
+                 "--drivers", "baseline", "--out", str(prefix), "--plot", str(png), "--quiet"]) == 0
+    rows = json.loads(prefix.with_suffix(".json").read_text())["rows"]
+    assert [r["cell"] for r in rows] == [0, 1] and all(r["episodes"] == 2 for r in rows)
+    assert all(sum(r[o] for o in ("goal", "collision", "wander", "timeout")) == 2 for r in rows)
+    csv = prefix.with_suffix(".csv").read_text().splitlines()
+    assert csv[0].startswith("cell,current") and len(csv) == 3
+    assert "| 0.5 | small | near_net | 1 |" in prefix.with_suffix(".md").read_text()
+    assert png.stat().st_size > 1000
+    assert "baseline: goal %" in capsys.readouterr().out
+
+
+def test_cli_unknown_matrix_or_driver_is_one_line(capsys):
+    assert main(["--matrix", "nope", "--quiet"]) == 2
+    assert "matrix: 'nope'" in capsys.readouterr().err
+    assert main(["--matrix", "tiny", "--drivers", "magic", "--quiet"]) == 2
+    assert "--drivers: unknown ['magic']" in capsys.readouterr().err
