@@ -56,8 +56,9 @@ def mission_drift(m: Mission) -> np.ndarray:
     """What the DVL gives the reactive layer: velocity over ground minus the commanded velocity
     through the water, in the body frame, i.e. the water's velocity at the vehicle."""
     w = m.world
-    cur = w.current_at(m.x, m.y, m.t) if hasattr(w, "current_at") else w.current
-    return to_body(np.asarray(cur, dtype=np.float64), m.yaw)
+    field = getattr(w, "current_field", None)      # a slowly varying field where the world has one
+    cur = field.velocity(m.x, m.y, m.t) if field is not None else w.current
+    return to_body(np.asarray(cur, dtype=np.float64).reshape(2), m.yaw)
 
 
 def _drive(driver: Policy, obs: np.ndarray, ms: list[Mission], motions: list[ReturnMotion] | None) -> np.ndarray:
