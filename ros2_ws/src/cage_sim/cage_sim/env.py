@@ -6,7 +6,9 @@ Registered ids (importing this module registers them):
   CageNavStudy2D-v0  the study's 2D case (one random obstacle)
   CageNavStudy1D-v0  the study's 1D sanity case
 
-Observation: ``EnvConfig.layout`` (see observation.py). Action: Box[-1, 1] scaled to +-20 deg.
+Observation: ``EnvConfig.layout`` (see observation.py: v1, or v2 with the sensor profile, velocity over
+ground and memory). Action: Box[-1, 1] scaled to +-20 deg. Step infos carry ``outcome`` and
+``is_success`` (the goal was reached).
 ``CageNavVecEnv`` steps many missions at once with one batched sonar call, for fast training.
 """
 from __future__ import annotations
@@ -25,9 +27,7 @@ WaypointFn = Callable[[Scenario], Sequence[Sequence[float]] | None]
 
 def observation_space(config: EnvConfig) -> spaces.Box:
     lay = config.layout
-    low = np.zeros(lay.size, dtype=np.float32)
-    low[-1] = -1.0
-    return spaces.Box(low=low, high=np.ones(lay.size, dtype=np.float32), dtype=np.float32)
+    return spaces.Box(low=lay.low(), high=lay.high(), dtype=np.float32)
 
 
 ACTION_SPACE = spaces.Box(low=-1.0, high=1.0, shape=(1,), dtype=np.float32)
@@ -63,7 +63,9 @@ class CageNavEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         sc = (options or {}).get("scenario") or _prepare(self.sampler, self.np_random, self.waypoint_fn)
-        self.mission = Mission(sc, self.config)
+        # Fish schools get their own seed, drawn only when there are any (other scenarios' streams stay as they were).
+        fish_seed = int(self.np_random.integers(2 ** 31)) if sc.world.schools else 0
+        self.mission = Mission(sc, self.config, fish_seed)
         return self._obs(), self.mission.info()
 
     def step(self, action):
@@ -76,7 +78,7 @@ class CageNavEnv(gym.Env):
         return self._obs(), float(reward), terminated, truncated, self.mission.info()
 
     def _obs(self) -> np.ndarray:
-        return self.mission.observe(self.mission.scan(self.np_random))
+        return self.mission.observe(self.mission.sense(self.np_random))
 
     def render(self):
         if self.render_mode != "rgb_array" or self.mission is None:

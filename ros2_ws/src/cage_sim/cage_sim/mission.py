@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .observation import ObservationLayout
+from .fish import FishState
+from .observation import ObservationBuilder, ObservationLayout, ObservationLayoutV2
 from .scenarios import Scenario
-from .sonar import SonarModel
+from .sonar import Scan, SonarModel, make_sonar
 from .route import RouteTracker
-from .vehicle import VehicleParams, decision_step
+from .vehicle import VehicleParams, decision_step, velocity_over_ground
 
 OUTCOMES = ("goal", "collision", "wander", "timeout")
 
@@ -41,9 +42,19 @@ class RewardConfig:
     clearance_margin: float = 2.0
 
 
+OBSERVATIONS = ("auto", "v1", "v2")
+
+
 @dataclass(frozen=True)
 class EnvConfig:
-    """Everything that defines an episode besides the scenario."""
+    """Everything that defines an episode besides the scenario (the water, the net and the fish are
+    the scenario's: scenarios.py families).
+
+    sonar: a ``SonarModel``, or a profile name / dict for ``make_sonar`` ("study", "fls", ...).
+    observation: "v1" (the study's layout), "v2" (sensor profile recorded, options below) or "auto"
+    (v1 for the study profile without options, else v2). velocity: add the velocity over ground.
+    memory_bins / memory_horizon: add the egocentric memory histogram (0 = none). scan_in_obs: keep
+    the raw scan in a v2 observation (False: memory only, e.g. a 180-beam scanning head)."""
 
     vehicle: VehicleParams = field(default_factory=VehicleParams)
     sonar: SonarModel = field(default_factory=SonarModel)
@@ -55,10 +66,30 @@ class EnvConfig:
     wander_distance: float = 15.0
     max_steps_factor: float = 3.0     # max_steps = factor * route length + extra
     max_steps_extra: int = 20
+    observation: str = "auto"
+    velocity: bool = False
+    memory_bins: int = 0
+    memory_horizon: float = 10.0
+    scan_in_obs: bool = True
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.sonar, SonarModel):
+            object.__setattr__(self, "sonar", make_sonar(self.sonar))
+        if self.observation not in OBSERVATIONS:
+            raise ValueError(f"observation: must be one of {OBSERVATIONS}, got {self.observation!r}")
+        if self.observation == "v1" and (self.velocity or self.memory_bins or not self.scan_in_obs):
+            raise ValueError("observation: 'v1' has no velocity / memory options (use 'v2' or 'auto')")
+        if self.memory_bins < 0:
+            raise ValueError(f"memory_bins: must be >= 0, got {self.memory_bins!r}")
 
     @property
-    def layout(self) -> ObservationLayout:
-        return ObservationLayout(self.sonar.n_beams, self.sonar.max_range, self.waypoint_scale)
+    def layout(self) -> "ObservationLayout | ObservationLayoutV2":
+        v1 = self.observation == "v1" or (self.observation == "auto" and self.sonar.profile == "study"
+                                           and not (self.velocity or self.memory_bins) and self.scan_in_obs)
+        if v1:
+            return ObservationLayout(self.sonar.n_beams, self.sonar.max_range, self.waypoint_scale)
+        return ObservationLayoutV2.for_sonar(self.sonar, self.waypoint_scale, self.velocity, self.memory_bins,
+                                             self.memory_horizon, self.scan_in_obs, 2.0 * self.vehicle.speed)
 
 
 def _segment_distance(ax: float, ay: float, bx: float, by: float, px: float, py: float) -> float:
@@ -77,9 +108,17 @@ class Mission:
     decision boundary). Both go through the same checks, so the graph and the env agree.
     """
 
-    def __init__(self, scenario: Scenario, config: EnvConfig):
+    def __init__(self, scenario: Scenario, config: EnvConfig, seed: int = 0):
         self.scenario, self.config = scenario, config
         self.world = scenario.world
+        cmax = self.world.current_field.max_speed
+        if cmax >= config.vehicle.speed:
+            raise ValueError(f"current: up to {cmax:.2f} m/s is not slower than the vehicle "
+                             f"({config.vehicle.speed:.2f} m/s through the water): it could not make headway")
+        self.fish = FishState(self.world.schools, self.world.net_radius, seed) if self.world.schools else None
+        self.head = config.sonar.head()
+        self.builder = ObservationBuilder(config.layout)
+        self.last_scan: Scan | None = None
         self.x, self.y, self.yaw = (float(v) for v in scenario.start)
         self.tracker = RouteTracker(scenario.start, scenario.route(), config.waypoint_radius)
         self.route = self.tracker.route
@@ -104,7 +143,7 @@ class Mission:
     def step(self, action: float) -> tuple[float, str | None]:
         """Apply one decision with the vehicle model; return (reward, outcome or None)."""
         x, y, yaw = decision_step(self.x, self.y, self.yaw, float(action), self.config.vehicle,
-                                  self.world.current, self.config.motion)
+                                  self.world.current_field, self.config.motion, self.t)
         return self.record(x, y, yaw)
 
     def record(self, x: float, y: float, yaw: float) -> tuple[float, str | None]:
@@ -118,8 +157,11 @@ class Mission:
         self.track.append((self.x, self.y, self.yaw))
         self.tracker.advance(self.x, self.y)
         mid = (0.5 * (x0 + self.x), 0.5 * (y0 + self.y))
-        clearance = min(self.world.clearance(self.x, self.y, self.t),
-                        self.world.clearance(*mid, self.t - 0.5 * cfg.vehicle.decision_period))
+        if self.fish is not None:
+            self.fish.step(cfg.vehicle.decision_period, (self.x, self.y))
+        scene = self.scene
+        clearance = min(scene.clearance(self.x, self.y, self.t),
+                        scene.clearance(*mid, self.t - 0.5 * cfg.vehicle.decision_period))
 
         dist, err = self.waypoint()
         remaining = self.tracker.remaining(self.x, self.y)
@@ -147,22 +189,65 @@ class Mission:
     def pose(self) -> tuple[float, float, float]:
         return self.x, self.y, self.yaw
 
+    @property
+    def scene(self):
+        """The world as the sonar and the collision test see it now (fish schools where they are)."""
+        return self.world if self.fish is None else self.world.with_fish(self.fish.circles())
+
+    def current_here(self) -> tuple[float, float]:
+        """Water velocity (map frame, m/s) at the vehicle now."""
+        return self.world.current_field.velocity(self.x, self.y, self.t)
+
+    def velocity_over_ground(self) -> tuple[float, float]:
+        """Body-frame (forward, left) velocity over ground now, as a DVL would report it."""
+        return velocity_over_ground(self.yaw, self.config.vehicle.speed, self.current_here())
+
     def info(self) -> dict:
-        return {"outcome": self.outcome, "steps": self.steps, "waypoint_index": self.index,
-                "route_length": self.route_length, "travelled": self.travelled,
+        return {"outcome": self.outcome, "is_success": self.outcome == "goal", "steps": self.steps,
+                "waypoint_index": self.index, "route_length": self.route_length, "travelled": self.travelled,
                 "pose": (self.x, self.y, self.yaw), "time": self.t}
 
-    def observe(self, ranges: np.ndarray) -> np.ndarray:
+    def observe(self, ranges: "np.ndarray | Scan") -> np.ndarray:
+        """The observation from this decision's scan (a ``Scan``, or plain ranges taken from this pose)."""
         d, e = self.waypoint()
-        return self.config.layout.build(ranges, d, e)
+        if isinstance(self.builder.layout, ObservationLayout):
+            r = ranges.ranges if isinstance(ranges, Scan) else ranges
+            return self.builder.layout.build(r, d, e)
+        scan = ranges if isinstance(ranges, Scan) else \
+            (self.last_scan if self.last_scan is not None and ranges is self.last_scan.ranges else None)
+        v = self.velocity_over_ground() if self.config.velocity else None
+        if scan is None:
+            return self.builder.build(ranges, self.x, self.y, self.yaw, self.t, d, e, v)
+        return self.builder.build_scan(scan, self.x, self.y, self.yaw, self.t, d, e, v)
+
+    def sense(self, rng: np.random.Generator | None = None) -> Scan:
+        """This decision's scan from the sonar head (stateful for a mechanical head)."""
+        head, args = self.head, (self.scene, self.x, self.y, self.yaw, self.t, rng)
+        self.last_scan = head.update(*args) if head.last is not None else head.reset(*args)
+        return self.last_scan
 
     def scan(self, rng: np.random.Generator | None = None) -> np.ndarray:
-        return self.config.sonar.scan(self.world, self.x, self.y, self.yaw, self.t, rng)
+        return self.sense(rng).ranges
 
 
 def observe_batch(config: EnvConfig, missions: list[Mission], rng: np.random.Generator | None = None) -> np.ndarray:
-    """Observations of many missions at once: one batched sonar call (each in its own world)."""
+    """Observations of many missions at once: one batched sonar call (each in its own world) for an
+    electronic sonar with the v1 layout; otherwise each mission's own head and builder (same code as
+    ``CageNavEnv``)."""
+    layout = config.layout
+    if config.sonar.mechanical or not isinstance(layout, ObservationLayout):
+        if config.sonar.mechanical:
+            return np.stack([m.observe(m.sense(rng)) for m in missions])
+        poses = np.array([m.pose for m in missions])
+        ranges = config.sonar.scan_batch([m.scene for m in missions], poses, np.array([m.t for m in missions]), rng)
+        out = []
+        for m, r in zip(missions, ranges):
+            n = len(r)
+            m.last_scan = m.head.last = Scan(r, config.sonar.angles, np.full(n, m.t), np.tile(m.pose, (n, 1)),
+                                             np.ones(n, dtype=bool))
+            out.append(m.observe(m.last_scan))
+        return np.stack(out)
     poses = np.array([m.pose for m in missions])
-    ranges = config.sonar.scan_batch([m.world for m in missions], poses, np.array([m.t for m in missions]), rng)
+    ranges = config.sonar.scan_batch([m.scene for m in missions], poses, np.array([m.t for m in missions]), rng)
     wp = np.array([m.waypoint() for m in missions])
-    return config.layout.build(ranges, wp[:, 0], wp[:, 1])
+    return layout.build(ranges, wp[:, 0], wp[:, 1])

@@ -8,6 +8,12 @@ one step over a whole decision (the env). With the defaults (1 m/s, 20 deg/s, 1 
 the largest action turns at the limit for the whole decision: a turning radius of 2.86 m, the
 study's "about 2.9 m".
 
+A current that varies in space or time (current.py) has no closed form: ``advance`` integrates it in
+substeps of at most ``MAX_SUBSTEP`` s (the current sampled at each substep's start), and falls back to
+the exact closed form when the field is uniform. ``advance`` is THE motion function: the env's decision
+step and the vehicle node's tick both call it, so they keep agreeing. ``velocity_over_ground`` is what a
+DVL reports (body frame): through-water velocity plus the current, so drift is observable.
+
 The study's step (turn instantly by the action, then move 1 m straight) is kept for reproducing its
 results (``motion="study"`` in the env).
 """
@@ -17,6 +23,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from .current import CurrentField
+
+MAX_SUBSTEP = 0.1   # s: substep for a varying current (0.1 m of travel at 1 m/s)
 
 
 def wrap_angle(a):
@@ -84,7 +94,32 @@ def propagate(x, y, yaw, heading_setpoint, dt, speed: float = 1.0,
     return x1, y1, wrap_angle(yaw1)
 
 
-def decision_step(x, y, yaw, action, params: VehicleParams, current=(0.0, 0.0), motion: str = "continuous"):
+def advance(x: float, y: float, yaw: float, heading_setpoint: float, dt: float, params: VehicleParams,
+            current: "CurrentField | tuple[float, float]" = (0.0, 0.0), t: float = 0.0
+            ) -> tuple[float, float, float]:
+    """Pose after ``dt`` s flying toward ``heading_setpoint`` in ``current`` (a field or a uniform vector)
+    starting at time ``t``: exact for a uniform current, substeps of <= MAX_SUBSTEP s otherwise."""
+    if not isinstance(current, CurrentField):
+        return propagate(x, y, yaw, heading_setpoint, dt, params.speed, params.max_yaw_rate, current)
+    if current.is_uniform:
+        return propagate(x, y, yaw, heading_setpoint, dt, params.speed, params.max_yaw_rate, current.uniform)
+    n = max(1, int(math.ceil(dt / MAX_SUBSTEP - 1e-9)))
+    h = dt / n
+    for i in range(n):
+        c = current.velocity(x, y, t + i * h)
+        x, y, yaw = propagate(x, y, yaw, heading_setpoint, h, params.speed, params.max_yaw_rate, c)
+    return x, y, yaw
+
+
+def velocity_over_ground(yaw: float, speed: float, current: tuple[float, float]) -> tuple[float, float]:
+    """Body-frame (forward, left) velocity over ground, as a DVL reports: ``speed`` through the water
+    along the heading plus the water's own velocity ``current`` (map frame) at the vehicle."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return speed + current[0] * c + current[1] * s, -current[0] * s + current[1] * c
+
+
+def decision_step(x, y, yaw, action, params: VehicleParams, current=(0.0, 0.0), motion: str = "continuous",
+                  t: float = 0.0):
     """Advance one decision from an action in [-1, 1], in either motion mode.
 
     ``continuous``: the heading setpoint ``yaw + action * max_turn`` integrated exactly over one
@@ -96,4 +131,4 @@ def decision_step(x, y, yaw, action, params: VehicleParams, current=(0.0, 0.0), 
         return x1, y1, wrap_angle(yaw1)
     if motion != "continuous":
         raise ValueError(f"motion must be 'continuous' or 'study', got {motion!r}")
-    return propagate(x, y, yaw, yaw + dpsi, params.decision_period, params.speed, params.max_yaw_rate, current)
+    return advance(x, y, yaw, yaw + dpsi, params.decision_period, params, current, t)
