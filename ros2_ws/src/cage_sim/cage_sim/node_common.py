@@ -33,3 +33,9 @@ def decision_period_ns(vehicle: VehicleParams) -> int:
 def declare(node, **defaults):
     """Declare several parameters at once and return their values in a dict."""
     return {k: node.declare_parameter(k, v).value for k, v in defaults.items()}
+
+
+def check(name: str, value, ok: bool, want: str) -> None:
+    """Refuse a parameter with one line naming it (``run_node`` turns the ValueError into exit 2)."""
+    if not ok:
+        raise ValueError(f"parameter {name}:={value!r} is invalid: must be {want}")
