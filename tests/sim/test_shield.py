@@ -149,3 +149,15 @@ def test_goal_near_the_net_is_reached_head_on():
     sc = Scenario("near_net", World(30.0), (0.0, 5.0, np.pi / 2), (0.0, 27.5))
     ep = run_one(ArcController(), sc, perception=True)
     assert ep.outcome == "goal" and ep.steps <= 26
+
+
+def test_shield_lets_a_policy_fly_head_on_through_a_goal_near_the_net():
+    # Straight at a goal 2.5 m from the net: no turn after it could keep 1 m from the net, but the
+    # mission ends at the goal, so the shield (told the waypoint is the goal) leaves the policy alone.
+    sc = Scenario("near_net", World(30.0), (0.0, 5.0, np.pi / 2), (0.0, 27.5))
+    shield = SafetyShield(Constant(0.0))
+    ep = run_one(shield, sc, perception=True)
+    assert ep.outcome == "goal" and shield.interventions == 0
+    blind = SafetyShield(Constant(0.0))                # not told: it steers away from the net near the goal
+    run_one(blind, sc, perception=False)
+    assert blind.interventions > 0

@@ -56,27 +56,40 @@ class SafetyShield:
             pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
         return np.array(pts).reshape(-1, 2)
 
-    def safe(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None) -> np.ndarray:
+    def safe(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None,
+             goal: np.ndarray | None = None, drift: np.ndarray | None = None) -> np.ndarray:
         """For each first action: does some continuation keep min_clearance from all returns?
 
         ``relative``: (K, 2) drift of the vehicle relative to each return (``Perception.relative``),
-        m/s in the body frame; None = still water and static returns."""
+        m/s in the body frame; None = still water and static returns. ``goal`` (body frame, the
+        mission's final waypoint) with ``drift``: nothing after passing through the goal is checked,
+        since the mission ends there (a goal 2.5 m from the net is reachable head-on)."""
         period = self.fallback.vehicle.decision_period
         t_first = np.array([0.5, 1.0]) * period
         t_cont = period + np.tile([0.5, 1.0], self.horizon - 1) * period + \
             np.repeat(np.arange(self.horizon - 1), 2) * period
         rel = np.zeros_like(returns) if relative is None else np.asarray(relative, dtype=np.float64)
+        dr = np.zeros(2) if drift is None else np.asarray(drift, dtype=np.float64)
+        reach = self.fallback.goal_pass
         out = np.empty(len(firsts), dtype=bool)
         for i, a in enumerate(firsts):
             x1, y1, yaw1 = decision_step(0.0, 0.0, 0.0, float(a), self.fallback.vehicle)
             c, s = math.cos(yaw1), math.sin(yaw1)
-            cont = self._cont @ np.array([[c, s], [-s, c]]) + (x1, y1)               # [C, P, 2]
-            first = np.array([(0.5 * x1, 0.5 * y1), (x1, y1)])                       # chord points
-            first = first[:, None] + t_first[:, None, None] * rel[None]              # [2, K, 2]
-            cont = cont[:, :, None] + t_cont[None, :, None, None] * rel[None, None]  # [C, P, K, 2]
-            d_first = np.linalg.norm(first - returns[None], axis=-1).min()
-            d_cont = np.linalg.norm(cont - returns[None, None], axis=-1).min(axis=(1, 2))
-            out[i] = d_first >= self.min_clearance and bool((d_cont >= self.min_clearance).any())
+            cont0 = self._cont @ np.array([[c, s], [-s, c]]) + (x1, y1)              # [C, P, 2]
+            first0 = np.array([(0.5 * x1, 0.5 * y1), (x1, y1)])                      # chord points
+            first = first0[:, None] + t_first[:, None, None] * rel[None]             # [2, K, 2]
+            cont = cont0[:, :, None] + t_cont[None, :, None, None] * rel[None, None]  # [C, P, K, 2]
+            d_first = np.linalg.norm(first - returns[None], axis=-1).min(axis=1)     # [2]
+            d_cont = np.linalg.norm(cont - returns[None, None], axis=-1).min(axis=2)  # [C, P]
+            if goal is not None:
+                hit_first = np.linalg.norm(first0 + t_first[:, None] * dr - goal, axis=1) < reach
+                if hit_first.any():
+                    j = int(np.argmax(hit_first))
+                    out[i] = bool(d_first[: j + 1].min() >= self.min_clearance)
+                    continue
+                hit = np.cumsum(np.linalg.norm(cont0 + t_cont[None, :, None] * dr - goal, axis=-1) < reach, axis=1)
+                d_cont = np.where(np.concatenate([np.zeros_like(hit[:, :1]), hit[:, :-1]], axis=1) > 0, np.inf, d_cont)
+            out[i] = d_first.min() >= self.min_clearance and bool((d_cont.min(axis=1) >= self.min_clearance).any())
         return out
 
     def act_one(self, obs: np.ndarray) -> float:
@@ -96,10 +109,11 @@ class SafetyShield:
         near = np.linalg.norm(p.returns, axis=1) < self._reach + drift_reach if len(p.returns) else \
             np.zeros(0, dtype=bool)
         returns, rel = p.returns[near], p.relative()[near]
-        if len(returns) == 0 or self.safe(np.array([a]), returns, rel)[0]:
+        goal = np.array([dist * math.cos(err), dist * math.sin(err)]) if p.final else None
+        if len(returns) == 0 or self.safe(np.array([a]), returns, rel, goal, p.drift)[0]:
             return a
         self.interventions += 1
-        ok = self.safe(self._alternatives, returns, rel)
+        ok = self.safe(self._alternatives, returns, rel, goal, p.drift)
         if ok.any():
             return float(self._alternatives[ok][np.argmin(np.abs(self._alternatives[ok] - a))])
         return self.fallback.decide(dist, err, p)
