@@ -60,18 +60,20 @@ def _dds_duration(seconds_nanoseconds: tuple[int, int] | None) -> int | None:
     return sec * 1_000_000_000 + nsec
 
 
-def endpoint_qos(profile: 'QoSProfile', ros_type: str, *, writer: bool) -> Qos:
+def endpoint_qos(profile: 'QoSProfile', ros_type: str, *, writer: bool, user_data: str = '') -> Qos:
     """Translate an rclpy QoSProfile into the Cyclone QoS rmw_cyclonedds_cpp would create.
 
     Mirrors rmw_cyclonedds' `create_readwrite_qos`: KEEP_LAST depth (system default -> 1), RELIABLE with
     infinite blocking or BEST_EFFORT, VOLATILE or TRANSIENT_LOCAL with a matching durability service,
     optional lifespan/deadline, AUTOMATIC liveliness, writer autodispose off; plus XCDR1 as the only data
-    representation (what rmw_cyclonedds writes) and the Jazzy type hash in USER_DATA.
+    representation (what rmw_cyclonedds writes) and the Jazzy type hash in USER_DATA, after `user_data`
+    (`clientid=...;` / `serviceid=...;` for service endpoints, as rmw_cyclonedds' rmw_init_cs).
+    `BEST_AVAILABLE` is resolved by the caller against the discovered publishers (rclpy does it in rcl).
     """
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, LivelinessPolicy, ReliabilityPolicy
 
     policies: list = [Policy.DataRepresentation(use_cdrv0_representation=True),
-                      Policy.Userdata(data=f'typehash={type_hash(ros_type)};'.encode())]
+                      Policy.Userdata(data=f'{user_data}typehash={type_hash(ros_type)};'.encode())]
     if profile.history == HistoryPolicy.KEEP_ALL:
         policies.append(Policy.History.KeepAll)
         hist_kind = Policy.History.KeepAll
@@ -136,7 +138,8 @@ class Domain:
         with self._lock:
             topic = self._topics.get(key)
             if topic is None:
-                topic = Topic(self.participant, dds_name, idl_type(ros_type))
+                request_header = dds_name.startswith(('rq/', 'rr/'))
+                topic = Topic(self.participant, dds_name, idl_type(ros_type, request_header))
                 self._topics[key] = topic
             return topic
 
@@ -154,7 +157,7 @@ class RawWriter:
     ros_type: str
 
     @classmethod
-    def create(cls, domain: Domain, dds_name: str, ros_type: str, qos: Qos) -> 'RawWriter':
+    def create(cls, domain: 'Domain', dds_name: str, ros_type: str, qos: Qos) -> 'RawWriter':
         return cls(DataWriter(domain.participant, domain.topic(dds_name, ros_type), qos), ros_type)
 
     @property
@@ -196,12 +199,16 @@ class RawReader:
 
     def take(self) -> list[bytes]:
         """Every valid sample available now (at most `max_take`), oldest first; never blocks."""
+        return [data for data, _ in self.take_with_info()]
+
+    def take_with_info(self) -> list[tuple[bytes, object]]:
+        """Like :meth:`take`, with each sample's SampleInfo (publication handle, timestamps)."""
         ret = ddspy_take(self.reader._ref, ANY_STATE, self.max_take)  # noqa: SLF001
         if isinstance(ret, int):
             if ret < 0:
                 raise RuntimeError(f'DDS take failed ({ret})')
             return []
-        return [data for data, info in ret if info.valid_data]
+        return [(data, info) for data, info in ret if info.valid_data]
 
     def matched_count(self) -> int:
         return self.reader.get_subscription_matched_status().current_count

@@ -44,9 +44,15 @@ def _member_type(desc: tuple) -> object:
 
 
 @functools.lru_cache(maxsize=None)
-def idl_type(ros_type: str) -> type[IdlStruct]:
-    """The Cyclone topic type for `pkg/msg/Name` (cached; nested types are shared)."""
+def idl_type(ros_type: str, request_header: bool = False) -> type[IdlStruct]:
+    """The Cyclone topic type for `pkg/msg/Name` (cached; nested types are shared).
+
+    With `request_header`, the type of a service request/reply topic: rmw_cyclonedds puts its
+    `cdds_request_header_t` (uint64 client writer id, int64 sequence number) in front of the message in
+    the same CDR stream, under the message's own type name.
+    """
     _, fielddefs = typestore().fielddefs[ros_type]
-    members = {name: _member_type(desc) for name, desc in fielddefs}
-    class_name = dds_type_name(ros_type).replace('::', '_')
+    members: dict = {'rmw_request_guid': t.uint64, 'rmw_request_seq': t.int64} if request_header else {}
+    members.update({name: _member_type(desc) for name, desc in fielddefs})
+    class_name = dds_type_name(ros_type).replace('::', '_') + ('_rq' if request_header else '')
     return make_idl_struct(class_name, dds_type_name(ros_type), members)

@@ -5,6 +5,11 @@ context's guard condition) and wakes the moment a sample arrives, a timer is due
 nothing polls with sleeps.  Waits are sliced to at most 100 ms only so that Python gets a chance to run
 signal handlers (they run between bytecodes, never inside a C call).  All callbacks run in the spinning
 thread, one per `spin_once`, timers before subscriptions, in arrival order.
+
+Service callbacks, action callbacks and `create_task` work run as :class:`rclpy.task.Task`s, so they may
+be coroutines that `await` futures (a reply, a goal's result); a suspended task is re-queued by the
+future it waits on.  Waitables (action servers and clients) expose `_entities()` (their services,
+clients, subscriptions) and are served like the node's own.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from cyclonedds.core import WaitSet
 
 from cage_ros_runtime.dds import delete_entity
 from rclpy.context import Context
+from rclpy.task import Task
 from rclpy.utilities import get_default_context
 
 #: Longest uninterrupted wait inside Cyclone, so pending Python signal handlers run promptly.
@@ -77,6 +83,17 @@ class Executor:
         """Make a blocked wait return (the context's guard condition)."""
         self._context._wake()  # noqa: SLF001
 
+    def create_task(self, callback: Callable[..., Any], *args: Any, **kwargs: Any) -> Task:
+        """Run `callback(*args)` (a function or coroutine function) in this executor; returns its Task."""
+        task = Task(callback, args, kwargs, executor=self)
+        self._requeue(task)
+        return task
+
+    def _requeue(self, task: Task) -> None:
+        """Queue a task (new, or resumed because what it awaited is done); thread-safe."""
+        self._ready.append(task)
+        self.wake()
+
     def shutdown(self, timeout_sec: Optional[float] = None) -> bool:
         self._is_shutdown = True
         self.wake()
@@ -127,9 +144,9 @@ class Executor:
             ws = WaitSet(domain.participant)
             ws.attach(domain.guard)
             for node in self._nodes:
-                for sub in node._subscriptions:  # noqa: SLF001
-                    if sub._reader is not None:  # noqa: SLF001
-                        ws.attach(sub._reader.condition)  # noqa: SLF001
+                for entity in _readable_entities(node):
+                    if entity._reader is not None:  # noqa: SLF001
+                        ws.attach(entity._reader.condition)  # noqa: SLF001
             self._waitset, self._waitset_key = ws, key
         return self._waitset
 
@@ -146,11 +163,42 @@ class Executor:
                     self._ready.append(timer._fire)  # noqa: SLF001
                 elif next_deadline < 0 or deadline < next_deadline:
                     next_deadline = deadline
+        self._pending_replies = False
         for node in self._nodes:
-            for sub in list(node._subscriptions):  # noqa: SLF001
+            for sub in _all_subscriptions(node):
                 for data in sub._take():  # noqa: SLF001
                     self._ready.append(functools.partial(sub._dispatch, data))  # noqa: SLF001
+            for srv in _all_services(node):
+                for request, header in srv._take():  # noqa: SLF001
+                    self._ready.append(functools.partial(self._run_service, srv, request, header))
+                if srv._flush_pending():  # noqa: SLF001
+                    self._pending_replies = True
+            for client in _all_clients(node):
+                for future, response in client._take():  # noqa: SLF001
+                    self._ready.append(functools.partial(_complete, future, response))
         return next_deadline
+
+    def _run_service(self, srv: Any, request: Any, header: Any) -> None:
+        """Run a service callback as a task; its returned response is sent when the task is done."""
+        raw = getattr(srv, '_raw_handler', None)
+        if raw is not None:  # action servers answer on their own schedule
+            raw(request, header)
+            return
+        task = Task(srv.callback, (request, srv.srv_type.Response()), executor=self)
+
+        def reply(t: Task) -> None:
+            exc = t.exception()
+            if exc is not None:
+                srv._node.get_logger().error(  # noqa: SLF001
+                    f'service {srv.srv_name}: callback raised {type(exc).__name__}: {exc}')
+                return
+            try:
+                srv.send_response(t.result(), header)
+            except Exception as err:  # noqa: BLE001 - a bad response must not stop the executor
+                srv._node.get_logger().error(f'service {srv.srv_name}: {err}')  # noqa: SLF001
+
+        task.add_done_callback(reply)
+        task()
 
     def _next_callback(self, timeout_sec: Optional[float]) -> Optional[Callable[[], None]]:
         deadline = None if timeout_sec is None or timeout_sec < 0 else \
@@ -166,7 +214,7 @@ class Executor:
             if self._ready:
                 return self._ready.popleft()
             now = time.monotonic_ns()
-            wait_ns = _WAIT_SLICE_NS
+            wait_ns = _WAIT_SLICE_NS if not getattr(self, '_pending_replies', False) else 10_000_000
             if next_timer >= 0:
                 wait_ns = min(wait_ns, max(0, next_timer - now))
             if deadline is not None:
@@ -182,6 +230,34 @@ class Executor:
             guard = self._context._domain.guard if self._context._domain else None  # noqa: SLF001
             if guard is not None and self._context.ok():
                 guard.set(False)
+
+
+def _complete(future: Any, response: Any) -> None:
+    if not future.done():
+        future.set_result(response)
+
+
+def _waitable_entities(node: Any, attr: str) -> list:
+    out = list(getattr(node, attr))
+    for waitable in node._waitables:  # noqa: SLF001
+        out.extend(waitable._entities().get(attr, ()))  # noqa: SLF001
+    return out
+
+
+def _all_subscriptions(node: Any) -> list:
+    return _waitable_entities(node, '_subscriptions')
+
+
+def _all_services(node: Any) -> list:
+    return _waitable_entities(node, '_services')
+
+
+def _all_clients(node: Any) -> list:
+    return _waitable_entities(node, '_clients')
+
+
+def _readable_entities(node: Any) -> list:
+    return _all_subscriptions(node) + _all_services(node) + _all_clients(node)
 
 
 class SingleThreadedExecutor(Executor):

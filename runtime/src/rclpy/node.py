@@ -69,6 +69,9 @@ class Node:
         self._publishers: List[Publisher] = []
         self._subscriptions: List[Subscription] = []
         self._timers: List[Timer] = []
+        self._services: List[Any] = []
+        self._clients: List[Any] = []
+        self._waitables: List[Any] = []
         self._generation = 0  # bumped when the set of waitable entities changes
         self._destroyed = False
         self.__executor_weakref: Any = None
@@ -161,11 +164,11 @@ class Node:
 
     @property
     def clients(self) -> Iterator[Any]:
-        yield from ()
+        yield from self._clients
 
     @property
     def services(self) -> Iterator[Any]:
-        yield from ()
+        yield from self._services
 
     @property
     def guards(self) -> Iterator[Any]:
@@ -173,7 +176,17 @@ class Node:
 
     @property
     def waitables(self) -> Iterator[Any]:
-        yield from ()
+        yield from self._waitables
+
+    def add_waitable(self, waitable: Any) -> None:
+        self._waitables.append(waitable)
+        self._generation += 1
+        self._wake_executor()
+
+    def remove_waitable(self, waitable: Any) -> None:
+        if waitable in self._waitables:
+            self._waitables.remove(waitable)
+            self._generation += 1
 
     def resolve_topic_name(self, topic: str, *, only_expand: bool = False) -> str:
         """Fully qualified and (unless only_expand) remapped topic name, as rcl resolves it."""
@@ -237,10 +250,51 @@ class Node:
         from rclpy.rate import Rate
         return Rate(frequency, context=self._context)
 
-    def create_client(self, *args: Any, **kwargs: Any) -> Any:
-        raise NotImplementedError('services are not supported by the cage runtime (topics only)')
+    def create_service(self, srv_type: Any, srv_name: str, callback: Callable[[Any, Any], Any], *,
+                       qos_profile: Optional[QoSProfile] = None, callback_group: Any = None) -> Any:
+        """A service server; `callback(request, response)` returns the response (may be a coroutine)."""
+        from rclpy.qos import qos_profile_services_default
+        from rclpy.service import Service
+        self._check_alive()
+        name = self.resolve_service_name(srv_name)
+        srv = Service(self, srv_type, name, callback, qos_profile or qos_profile_services_default)
+        self._services.append(srv)
+        self._generation += 1
+        self._context._graph_changed()  # noqa: SLF001
+        self._wake_executor()
+        return srv
 
-    create_service = create_client
+    def create_client(self, srv_type: Any, srv_name: str, *, qos_profile: Optional[QoSProfile] = None,
+                      callback_group: Any = None) -> Any:
+        """A service client (`call_async`, `call`, `wait_for_service`, `service_is_ready`)."""
+        from rclpy.client import Client
+        from rclpy.qos import qos_profile_services_default
+        self._check_alive()
+        name = self.resolve_service_name(srv_name)
+        client = Client(self, srv_type, name, qos_profile or qos_profile_services_default)
+        self._clients.append(client)
+        self._generation += 1
+        self._context._graph_changed()  # noqa: SLF001
+        self._wake_executor()
+        return client
+
+    def destroy_service(self, service: Any) -> bool:
+        if service in self._services:
+            self._services.remove(service)
+            self._generation += 1
+            service._close()  # noqa: SLF001
+            self._context._graph_changed()  # noqa: SLF001
+            return True
+        return False
+
+    def destroy_client(self, client: Any) -> bool:
+        if client in self._clients:
+            self._clients.remove(client)
+            self._generation += 1
+            client._close()  # noqa: SLF001
+            self._context._graph_changed()  # noqa: SLF001
+            return True
+        return False
 
     def _wake_executor(self) -> None:
         executor = self.executor
@@ -294,16 +348,31 @@ class Node:
             sub._close()  # noqa: SLF001
         for timer in list(self._timers):
             self.destroy_timer(timer)
+        for waitable in list(self._waitables):
+            try:
+                waitable.destroy()
+            except Exception:  # noqa: BLE001 - best effort at teardown
+                pass
+        for srv in list(self._services):
+            self.destroy_service(srv)
+        for client in list(self._clients):
+            self.destroy_client(client)
         self._destroyed = True
         self._generation += 1
         self._context._untrack_node(self)  # noqa: SLF001
         self._context._graph_changed()  # noqa: SLF001
 
     def _reader_gids(self) -> List[bytes]:
-        return [s.handle.gid for s in self._subscriptions if s._reader is not None]  # noqa: SLF001
+        out = [s.handle.gid for s in self._subscriptions if s._reader is not None]  # noqa: SLF001
+        out += [e._reader.gid for e in self._services + self._clients  # noqa: SLF001
+                if e._reader is not None]  # noqa: SLF001
+        return out
 
     def _writer_gids(self) -> List[bytes]:
-        return [p.handle.gid for p in self._publishers if p._writer is not None]  # noqa: SLF001
+        out = [p.handle.gid for p in self._publishers if p._writer is not None]  # noqa: SLF001
+        out += [e._writer.gid for e in self._services + self._clients  # noqa: SLF001
+                if e._writer is not None]  # noqa: SLF001
+        return out
 
     # ------------------------------------------------------------------ graph queries
     def _observer(self) -> Any:
