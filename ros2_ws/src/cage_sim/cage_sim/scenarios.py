@@ -17,6 +17,9 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import yaml
 
+from .current import CurrentMode, random_field
+from .fish import FishSchool
+from .net import MAX_LOSS
 from .world import Obstacle, World
 
 Point = tuple[float, float]
@@ -31,6 +34,7 @@ class Scenario:
     start: tuple[float, float, float]
     goal: Point
     waypoints: tuple[Point, ...] | None = None
+    sensor: str | None = None      # sensor profile the scenario asks for (None: the caller's choice)
 
     def route(self) -> np.ndarray:
         """The points the vehicle should pass, in order, ending at the goal."""
@@ -69,6 +73,16 @@ class Scenario:
         }
         if self.waypoints:
             d["waypoints"] = [list(p) for p in self.waypoints]
+        if w.current_modes:
+            d["current_modes"] = [{k: getattr(m, k) for k in _MODE_KEYS} for m in w.current_modes]
+        if math.isfinite(w.current_cap):
+            d["current_cap"] = w.current_cap
+        if w.net_loss != 0.0:
+            d["net_deformation"] = "auto" if w.net_loss is None else w.net_loss
+        if w.schools:
+            d["fish_schools"] = [{k: getattr(f, k) for k in _SCHOOL_KEYS} for f in w.schools]
+        if self.sensor:
+            d["sensor"] = self.sensor
         return d
 
 
@@ -87,13 +101,20 @@ def _obstacle_dict(o: Obstacle) -> dict:
 
 _TOP_KEYS = {"name": str, "net_radius": float, "safety_radius": float, "current": list,
              "start": list, "goal": list, "waypoints": list, "known_obstacles": list,
-             "unknown_obstacles": list}
+             "unknown_obstacles": list, "current_modes": list, "current_cap": float,
+             "net_deformation": object, "fish_schools": list, "sensor": str}
+_MODE_KEYS = {"ax": float, "ay": float, "kx": float, "ky": float, "omega": float, "phase": float}
+_SCHOOL_KEYS = {"x": float, "y": float, "radius": float, "flee_radius": float, "flee_speed": float,
+                "return_speed": float, "wander": float, "wander_period": float}
+MAX_CURRENT = 0.9   # m/s: a current must stay below the vehicle's 1 m/s through the water
 _REQUIRED = ("start", "goal")
 _OBSTACLE_KEYS = {"shape": str, "x": float, "y": float, "size": float, "ax": float, "ay": float,
                   "period": float}
 
 
 def _typed(value: Any, kind: type, where: str) -> Any:
+    if kind is object:
+        return value
     if kind is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ScenarioError(f"{where}: expected a number, got {value!r}")
@@ -131,6 +152,46 @@ def _obstacles(items: list, where: str) -> tuple[Obstacle, ...]:
     return tuple(out)
 
 
+def _records(items: list, keys: dict, required: tuple[str, ...], where: str, make) -> tuple:
+    out = []
+    for i, item in enumerate(items):
+        here = f"{where}[{i}]"
+        if not isinstance(item, dict):
+            raise ScenarioError(f"{here}: expected a mapping, got {item!r}")
+        for key in item:
+            if key not in keys:
+                raise ScenarioError(f"{here}.{key}: unknown key (allowed: {', '.join(keys)})")
+        for key in required:
+            if key not in item:
+                raise ScenarioError(f"{here}.{key}: missing")
+        vals = {k: _typed(v, keys[k], f"{here}.{k}") for k, v in item.items()}
+        try:
+            out.append(make(**vals))
+        except ValueError as err:
+            field_ = str(err).split(" must")[0].split()[-1]
+            raise ScenarioError(f"{here}.{field_}: {err}") from None
+    return tuple(out)
+
+
+def _net_deformation(value: Any) -> float | None:
+    if value == "auto":
+        return None
+    v = _typed(value, float, "net_deformation")
+    if not 0.0 <= v <= MAX_LOSS:
+        raise ScenarioError(f"net_deformation: an area loss in [0, {MAX_LOSS}] or 'auto', got {value!r}")
+    return v
+
+
+def check_water(world: World, where: str = "current") -> None:
+    """Field-named errors for water a 1 m/s vehicle cannot work in."""
+    speed = math.hypot(*world.current)
+    if speed > MAX_CURRENT:
+        raise ScenarioError(f"{where}: {speed:.2f} m/s is as fast as the vehicle or nearly (limit {MAX_CURRENT} m/s)")
+    if world.current_field.max_speed > MAX_CURRENT:
+        raise ScenarioError(f"current_modes: uniform + modes reach {world.current_field.max_speed:.2f} m/s, "
+                            f"above {MAX_CURRENT} m/s (set current_cap)")
+
+
 def scenario_from_dict(data: Any, default_name: str = "scenario") -> Scenario:
     """Build and validate a scenario from parsed YAML (see the README for the schema)."""
     if not isinstance(data, dict):
@@ -146,17 +207,30 @@ def scenario_from_dict(data: Any, default_name: str = "scenario") -> Scenario:
     goal = _point(vals["goal"], "goal", 2)
     current = _point(vals.get("current", [0.0, 0.0]), "current", 2)
     waypoints = tuple(_point(p, f"waypoints[{i}]", 2) for i, p in enumerate(vals.get("waypoints", [])))
+    modes = _records(vals.get("current_modes", []), _MODE_KEYS, ("ax", "ay"), "current_modes", CurrentMode)
+    schools = _records(vals.get("fish_schools", []), _SCHOOL_KEYS, ("x", "y"), "fish_schools", FishSchool)
+    cap = vals.get("current_cap", math.inf)
+    if not cap > 0:
+        raise ScenarioError(f"current_cap: must be > 0 m/s, got {cap!r}")
+    loss = _net_deformation(vals["net_deformation"]) if "net_deformation" in vals else 0.0
+    sensor = vals.get("sensor")
+    if sensor is not None:
+        from .sonar import PROFILE_NAMES
+        if sensor not in PROFILE_NAMES:
+            raise ScenarioError(f"sensor: must be one of {PROFILE_NAMES}, got {sensor!r}")
     try:
         world = World(net_radius=vals.get("net_radius", 30.0),
                       known=_obstacles(vals.get("known_obstacles", []), "known_obstacles"),
                       unknown=_obstacles(vals.get("unknown_obstacles", []), "unknown_obstacles"),
-                      current=current, safety_radius=vals.get("safety_radius", 0.5))
+                      current=current, safety_radius=vals.get("safety_radius", 0.5),
+                      current_modes=modes, current_cap=cap, net_loss=loss, schools=schools)
     except ScenarioError:
         raise
     except ValueError as err:
         raise ScenarioError(f"net_radius/safety_radius: {err}") from None
+    check_water(world)
     sc = Scenario(vals.get("name", default_name), world, (start[0], start[1], math.radians(start[2])),
-                  goal, waypoints or None)
+                  goal, waypoints or None, sensor)
     sc.validate()
     for i, p in enumerate(waypoints):
         if not world.inside_net(*p, world.safety_radius):
@@ -193,6 +267,41 @@ class CageParams:
     min_route: float = 20.0
     min_gap: float = 2.0          # free water kept between any two obstacles (so no pocket closes)
     on_route_fraction: float = 0.5  # unknown obstacles placed near the straight start-goal line
+    # --- sea-ready knobs (defaults leave every draw above exactly as before) ---
+    current_max: float | None = None        # current speed uniform in [current_speed, current_max]
+    current_variation: float = 0.0          # slowly varying modes, amplitude sum = variation * speed
+    net_deformation: float | None = 0.0     # area loss; None = from the current (net.py)
+    obstacle_size: tuple[float, float] | None = None  # unknown static obstacles: circle radius /
+    #                                                   square half-side range (m), e.g. (0.15, 0.3)
+    goal_wall: float | None = None          # goal this far (m) from the nominal net wall, e.g. 2.5
+    n_schools: int = 0                      # fleeing fish schools (fish.py)
+    sensor: str | None = None               # sensor profile recorded in the scenario
+
+    def __post_init__(self) -> None:
+        def bad(name: str, msg: str) -> ScenarioError:
+            return ScenarioError(f"{name}: {msg}, got {getattr(self, name)!r}")
+        for name in ("n_known", "n_unknown", "n_moving", "n_schools"):
+            if getattr(self, name) < 0:
+                raise bad(name, "must be >= 0")
+        if not 0 <= self.current_speed <= MAX_CURRENT:
+            raise bad("current_speed", f"must be in [0, {MAX_CURRENT}] m/s (negative, or as fast as the vehicle)")
+        if self.current_max is not None and not self.current_speed <= self.current_max <= MAX_CURRENT:
+            raise bad("current_max", f"must be in [current_speed, {MAX_CURRENT}] m/s")
+        top = (self.current_max or self.current_speed) * (1 + self.current_variation)
+        if not 0 <= self.current_variation <= 1 or top > MAX_CURRENT:
+            raise bad("current_variation", f"must be in [0, 1] with speed * (1 + variation) <= {MAX_CURRENT}")
+        if self.net_deformation is not None and not 0 <= self.net_deformation <= MAX_LOSS:
+            raise bad("net_deformation", f"must be an area loss in [0, {MAX_LOSS}] or None (from the current)")
+        if self.obstacle_size is not None:
+            lo, hi = self.obstacle_size
+            if not 0 < lo <= hi:
+                raise bad("obstacle_size", "must be (low, high) radii with 0 < low <= high")
+        if self.goal_wall is not None and not self.safety_radius < self.goal_wall < self.net_radius / 2:
+            raise bad("goal_wall", "must be between the safety radius and half the net radius (m)")
+        if self.sensor is not None:
+            from .sonar import PROFILE_NAMES
+            if self.sensor not in PROFILE_NAMES:
+                raise bad("sensor", f"must be one of {PROFILE_NAMES}")
 
 
 def _free_point(rng, radius, taken, bound, gap, tries=500):
@@ -220,7 +329,10 @@ def generate_cage(rng: np.random.Generator, p: CageParams = CageParams(), name: 
             known.append(Obstacle("square", c[0], c[1], p.known_size))
         keep_clear = 2.5
         start = _free_point(rng, p.net_radius - 5.0, taken, keep_clear, 0.0)
-        goal = _free_point(rng, p.net_radius - 5.0, taken, keep_clear, 0.0)
+        if p.goal_wall is None:
+            goal = _free_point(rng, p.net_radius - 5.0, taken, keep_clear, 0.0)
+        else:
+            goal = _wall_point(rng, p.net_radius - p.goal_wall, taken, keep_clear)
         if start is None or goal is None or math.dist(start, goal) < p.min_route or len(known) < p.n_known:
             continue
         taken_sg = taken + [(start, keep_clear), (goal, keep_clear)]
@@ -230,9 +342,56 @@ def generate_cage(rng: np.random.Generator, p: CageParams = CageParams(), name: 
         heading = math.atan2(goal[1] - start[1], goal[0] - start[0]) + rng.uniform(-math.pi / 2, math.pi / 2)
         ang = rng.uniform(-math.pi, math.pi)
         current = (p.current_speed * math.cos(ang), p.current_speed * math.sin(ang))
-        world = World(p.net_radius, tuple(known), tuple(unknown), current, p.safety_radius)
-        return Scenario(name, world, (start[0], start[1], math.atan2(math.sin(heading), math.cos(heading))), goal)
+        extra: dict[str, Any] = {}
+        if p.current_max is not None or p.current_variation or p.net_deformation != 0.0 or p.n_schools:
+            speed = rng.uniform(p.current_speed, p.current_max) if p.current_max is not None else p.current_speed
+            field_ = random_field(rng, speed, 2 if p.current_variation else 0, p.current_variation)
+            current = (speed * math.cos(ang), speed * math.sin(ang))
+            extra = dict(current_modes=field_.modes, current_cap=field_.cap, net_loss=p.net_deformation,
+                         schools=_schools(rng, p, start, goal, taken_sg + [(u.centre(), u.bound) for u in unknown]))
+            if len(extra["schools"]) < p.n_schools:
+                continue
+        world = World(p.net_radius, tuple(known), tuple(unknown), current, p.safety_radius, **extra)
+        if world.net.deformed:
+            if p.goal_wall is not None:   # near the wall the sonar sees, not the nominal one
+                a = math.atan2(goal[1], goal[0])
+                rr = float(world.net.r(a)) - p.goal_wall
+                goal = (rr * math.cos(a), rr * math.sin(a))
+                if world.clearance(*goal) < min(keep_clear, p.goal_wall) - 0.1 or math.dist(start, goal) < p.min_route:
+                    continue
+            if world.net.clearance(*start) < keep_clear or world.net.clearance(*goal) < min(keep_clear, p.goal_wall or keep_clear) - 0.1:
+                continue   # the pushed-in wall took the start or the goal: draw again
+        return Scenario(name, world, (start[0], start[1], math.atan2(math.sin(heading), math.cos(heading))), goal,
+                        sensor=p.sensor)
     raise RuntimeError("could not place a cage scenario; loosen CageParams")
+
+
+def _wall_point(rng, radius: float, taken, keep_clear: float):
+    """A point on the circle of ``radius`` (a goal near the net) clear of the obstacles."""
+    for _ in range(500):
+        a = rng.uniform(-math.pi, math.pi)
+        q = (radius * math.cos(a), radius * math.sin(a))
+        if all(math.dist(q, c) >= b + keep_clear for c, b in taken):
+            return q
+    return None
+
+
+def _schools(rng, p: CageParams, start, goal, taken) -> tuple[FishSchool, ...]:
+    """Fleeing schools: radius 1-1.5 m, homes clear of everything (they drift and flee from there)."""
+    out = []
+    for _ in range(p.n_schools):
+        radius = rng.uniform(1.0, 1.5)
+        for _ in range(300):
+            c = _free_point(rng, p.net_radius - radius - 3.0, [], 0.0, 0.0)
+            if all(math.dist(c, q) >= b + radius + 1.0 for q, b in taken):
+                break
+        else:
+            continue
+        taken = taken + [(c, radius + 2.0)]
+        out.append(FishSchool(c[0], c[1], radius, flee_radius=rng.uniform(3.0, 5.0), flee_speed=rng.uniform(0.5, 1.0),
+                              return_speed=rng.uniform(0.1, 0.3), wander=rng.uniform(1.0, 3.0),
+                              wander_period=rng.uniform(30.0, 90.0)))
+    return tuple(out)
 
 
 def _unknown_obstacles(rng, p: CageParams, start, goal, taken) -> list[Obstacle]:
@@ -244,6 +403,10 @@ def _unknown_obstacles(rng, p: CageParams, start, goal, taken) -> list[Obstacle]
         if moving:
             shape, size = "circle", rng.uniform(1.0, 1.5)
             amp, period = rng.uniform(2.0, 4.0), rng.uniform(20.0, 40.0)
+        elif p.obstacle_size is not None:
+            r = rng.uniform(*p.obstacle_size)
+            shape, amp, period = ("circle", 0.0, 0.0) if rng.random() < 0.5 else ("square", 0.0, 0.0)
+            size = r if shape == "circle" else 2.0 * r
         elif rng.random() < 0.5:
             shape, size, amp, period = "circle", rng.uniform(0.3, 1.0), 0.0, 0.0
         else:
@@ -313,14 +476,122 @@ SCENARIOS: dict[str, Sampler] = {
 }
 
 
+# --------------------------------------------------------------------------- families
+
+OBSTACLE_SIZES = {"default": None, "small": (0.15, 0.3), "mixed": (0.15, 1.0)}
+FAMILY_BASES = ("cage", "cage_moving")
+FAMILY_KEYS = ("current", "variation", "net", "obstacles", "goal", "schools", "sensor", "known", "unknown")
+
+
+def _range(value: str, key: str, spec: str) -> tuple[float, float]:
+    try:
+        lo, _, hi = value.partition("-")
+        lo_f = float(lo)
+        hi_f = float(hi) if hi else lo_f
+    except ValueError:
+        raise ScenarioError(f"scenario family {spec!r}: {key}: expected a number or a range 'a-b', got {value!r}") from None
+    if not (math.isfinite(lo_f) and math.isfinite(hi_f)) or hi_f < lo_f:
+        raise ScenarioError(f"scenario family {spec!r}: {key}: bad range {value!r}")
+    return lo_f, hi_f
+
+
+def family_params(spec: "str | dict") -> tuple[str, CageParams]:
+    """Parse a family: ``"cage?current=0.5&obstacles=small&goal=near_net&schools=3&sensor=fls"`` or
+    the same as a dict ``{"base": "cage", "current": 0.5, ...}``. Keys (all optional):
+      current    inside-pen speed m/s, or a range "0.15-0.25" (drawn per scenario); default 0
+      variation  slowly varying part, fraction of the speed (default 0.2 when current > 0)
+      net        "auto" (deformed by the current, default when current > 0), "none", or an area loss
+      obstacles  "default" (the study's sizes), "small" (radius 0.15-0.3 m), "mixed" (0.15-1.0), or "a-b"
+      goal       "any" (default) or "near_net" (2.5 m from the wall) or a distance "3.0"
+      schools    number of fleeing fish schools (default 0)
+      sensor     sensor profile recorded in each scenario (study, multibeam360, fls, scanning)
+      known / unknown  numbers of known / unknown obstacles
+    Returns (base name, CageParams); errors name the key."""
+    if isinstance(spec, dict):
+        d = {k: str(v) for k, v in spec.items() if k != "base"}
+        base, text = str(spec.get("base", "cage")), "&".join(f"{k}={v}" for k, v in d.items())
+        spec = f"{base}?{text}" if text else base
+    base, _, query = spec.partition("?")
+    if base not in FAMILY_BASES:
+        raise ScenarioError(f"scenario family {spec!r}: base: must be one of {FAMILY_BASES}, got {base!r}")
+    kv: dict[str, str] = {}
+    for part in filter(None, query.split("&")):
+        k, eq, v = part.partition("=")
+        if not eq or k not in FAMILY_KEYS:
+            raise ScenarioError(f"scenario family {spec!r}: {k}: unknown key (allowed: {', '.join(FAMILY_KEYS)})")
+        kv[k] = v
+    p = CageParams(n_moving=3, current_speed=0.1) if base == "cage_moving" else CageParams()
+    changes: dict[str, Any] = {}
+    if "current" in kv:
+        lo, hi = _range(kv["current"], "current", spec)
+        if lo < 0:
+            raise ScenarioError(f"scenario family {spec!r}: current: speed must be >= 0, got {kv['current']!r}")
+        changes.update(current_speed=lo, current_max=hi if hi > lo else None)
+    moving_water = changes.get("current_max") or changes.get("current_speed", 0.0) > 0
+    try:
+        var = float(kv.get("variation", 0.2 if moving_water else 0.0))
+    except ValueError:
+        raise ScenarioError(f"scenario family {spec!r}: variation: expected a number, got {kv['variation']!r}") from None
+    changes["current_variation"] = var
+    net = kv.get("net", "auto" if moving_water else "none")
+    if net == "auto":
+        changes["net_deformation"] = None
+    elif net == "none":
+        changes["net_deformation"] = 0.0
+    else:
+        changes["net_deformation"] = _range(net, "net", spec)[0]
+    obs = kv.get("obstacles", "default")
+    changes["obstacle_size"] = OBSTACLE_SIZES[obs] if obs in OBSTACLE_SIZES else _range(obs, "obstacles", spec)
+    goal = kv.get("goal", "any")
+    if goal != "any":
+        changes["goal_wall"] = 2.5 if goal == "near_net" else _range(goal, "goal", spec)[0]
+    for key, name in (("schools", "n_schools"), ("known", "n_known"), ("unknown", "n_unknown")):
+        if key in kv:
+            if not kv[key].isdigit():
+                raise ScenarioError(f"scenario family {spec!r}: {key}: expected a whole number, got {kv[key]!r}")
+            changes[name] = int(kv[key])
+    if "sensor" in kv:
+        changes["sensor"] = kv["sensor"]
+    try:
+        return base, replace(p, **changes)
+    except ScenarioError as err:
+        raise ScenarioError(f"scenario family {spec!r}: {err}") from None
+
+
+def make_generator(spec: "str | dict") -> Sampler:
+    """A sampler for a named family (see ``family_params``): the trainer's domain randomisation and the
+    evaluator's matrix both draw from it. A bare base name without a query is the registered one."""
+    if isinstance(spec, str) and spec in SCENARIOS and "?" not in spec:
+        return SCENARIOS[spec]
+    base, params = family_params(spec)
+    name = spec if isinstance(spec, str) else base
+
+    def sample(rng: np.random.Generator) -> Scenario:
+        return generate_cage(rng, params, name)
+    sample.params = params        # type: ignore[attr-defined]
+    return sample
+
+
+def family_sensor(spec: "str | dict") -> str | None:
+    """The sensor profile a family names (``sensor=...``), None when it leaves it to the caller."""
+    if isinstance(spec, (str, dict)) and ("?" in str(spec) or isinstance(spec, dict)):
+        return family_params(spec)[1].sensor
+    return None
+
+
 def scenario_sampler(spec: "str | Path | Scenario | Sampler") -> Sampler:
-    """Resolve a scenario name, a YAML path, a fixed Scenario or a sampler to a sampler."""
+    """Resolve a scenario name, a family ("cage?current=0.5&..."), a YAML path, a fixed Scenario or a
+    sampler to a sampler."""
     if isinstance(spec, Scenario):
         return lambda rng: spec
     if callable(spec):
         return spec
+    if isinstance(spec, dict):
+        return make_generator(spec)
     if isinstance(spec, str) and spec in SCENARIOS:
         return SCENARIOS[spec]
+    if isinstance(spec, str) and "?" in spec:
+        return make_generator(spec)
     path = Path(spec)
     if path.suffix in (".yaml", ".yml"):
         sc = load_scenario(path)
