@@ -42,6 +42,15 @@ def test_cli_tiny_matrix_writes_tables_and_figure(tmp_path, capsys):
     assert "| 0.5 | small | near_net | 1 |" in prefix.with_suffix(".md").read_text()
     assert png.stat().st_size > 1000
     assert "baseline: goal %" in capsys.readouterr().out
+    # The shipped policy on the same missions, the baseline's rows reused from the first run.
+    both = tmp_path / "both"
+    assert main(["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--drivers", "raw,baseline",
+                 "--reuse", str(prefix.with_suffix(".json")), "--out", str(both), "--quiet"]) == 0
+    rows2 = json.loads(both.with_suffix(".json").read_text())["rows"]
+    assert [(r["cell"], r["driver"]) for r in rows2] == [(0, "raw"), (0, "baseline"), (1, "raw"), (1, "baseline")]
+    assert [r for r in rows2 if r["driver"] == "baseline"] == rows
+    assert main(["--matrix", "tiny", "--episodes", "3", "--seed", "5", "--reuse", str(prefix.with_suffix(".json")),
+                 "--quiet"]) == 2
 
 
 def test_cli_unknown_matrix_or_driver_is_one_line(capsys):

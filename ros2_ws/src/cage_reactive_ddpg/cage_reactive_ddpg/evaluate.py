@@ -215,6 +215,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="with --matrix: which of raw, shield, baseline to run (comma-separated)")
     ap.add_argument("--out", default=None, help="with --matrix: output prefix for .md/.csv/.json "
                                                 "(default out/matrix_<name>)")
+    ap.add_argument("--reuse", default=None,
+                    help="with --matrix: a JSON written by an earlier --matrix run with the same matrix, seed, "
+                         "episodes and planner; its drivers' rows are taken from it instead of run again")
     a = ap.parse_args(argv)
     if a.matrix:
         return matrix_main(a)
@@ -237,6 +240,18 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _reused(a: argparse.Namespace, name: str, motion: str) -> list[dict]:
+    """Rows of an earlier run of the same matrix on the same missions (``--reuse``), checked."""
+    if not a.reuse:
+        return []
+    old = json.loads(Path(a.reuse).read_text())
+    for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
+                      ("motion", motion)):
+        if old.get(key) != mine:
+            raise ValueError(f"--reuse {a.reuse}: {key} is {old.get(key)!r} there, {mine!r} here")
+    return list(old["rows"])
+
+
 def matrix_main(a: argparse.Namespace) -> int:
     """``--matrix``: every chosen driver on every cell; tables, CSV, JSON and PNG."""
     from . import matrix as mx
@@ -254,13 +269,19 @@ def matrix_main(a: argparse.Namespace) -> int:
                 drv, _, meta = load_driver(a.policy, shield=(d == "shield"))
                 drivers[d] = drv
         motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
-        rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, motion, progress=not a.quiet)
+        old = _reused(a, name, motion)
+        rows = mx.run_matrix(cells, {d: v for d, v in drivers.items() if d not in {r["driver"] for r in old}},
+                             a.episodes, a.seed, a.planner, motion, progress=not a.quiet)
+        order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
+        rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
     prefix = Path(a.out or f"out/matrix_{name}")
     prefix.parent.mkdir(parents=True, exist_ok=True)
     policy = str(a.policy or "shipped policy")
+    if a.reuse:
+        policy += f" (rows of {sorted({r['driver'] for r in _reused(a, name, motion)})} from {a.reuse})"
     title = (f"matrix {name}: {a.episodes} missions per cell, seed {a.seed}, planner {a.planner}, "
              f"policy {Path(policy).name}")
     md = mx.markdown(rows, title)
