@@ -27,6 +27,8 @@ JAZZY_HASHES = {
         'RIHS01_da199c878688b3e530bdfe3ca8f74cb9fa0c303101e980a9e8f260e25e1c80ca',
     'action_msgs/srv/CancelGoal':
         'RIHS01_573d8b0a534451d7bc2ac8c5ffde8ac14b8593b7001175d0cd6516dcbeb8689a',
+    'example_interfaces/srv/AddTwoInts':
+        'RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a',
     'action_msgs/msg/GoalStatusArray':
         'RIHS01_6c1684b00f177d37438febe6e709fc4e2b0d4248dca4854946f9ed8b30cda83e',
 }

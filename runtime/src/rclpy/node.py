@@ -364,14 +364,19 @@ class Node:
 
     def _reader_gids(self) -> List[bytes]:
         out = [s.handle.gid for s in self._subscriptions if s._reader is not None]  # noqa: SLF001
-        out += [e._reader.gid for e in self._services + self._clients  # noqa: SLF001
-                if e._reader is not None]  # noqa: SLF001
+        out += [e._reader.gid for e in self._reqrep_entities() if e._reader is not None]  # noqa: SLF001
+        return out
+
+    def _reqrep_entities(self) -> List[Any]:
+        out = self._services + self._clients
+        for waitable in self._waitables:
+            for group in waitable._entities().values():  # noqa: SLF001
+                out = out + list(group)
         return out
 
     def _writer_gids(self) -> List[bytes]:
         out = [p.handle.gid for p in self._publishers if p._writer is not None]  # noqa: SLF001
-        out += [e._writer.gid for e in self._services + self._clients  # noqa: SLF001
-                if e._writer is not None]  # noqa: SLF001
+        out += [e._writer.gid for e in self._reqrep_entities() if e._writer is not None]  # noqa: SLF001
         return out
 
     # ------------------------------------------------------------------ graph queries

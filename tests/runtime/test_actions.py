@@ -1,0 +1,64 @@
+"""Actions across real processes: send_goal -> accepted, feedback, result, cancel, rejection, status."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from runtime_testlib import spin_until
+
+
+def test_action_goal_feedback_result_cancel_reject(spawn: Callable[..., Any], context: Any) -> None:
+    from action_msgs.msg import GoalStatus
+    from action_msgs.srv import CancelGoal
+    from example_interfaces.action import Fibonacci
+    from rclpy.action import ActionClient
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+
+    server = spawn('fibonacci_server.py')
+    assert server.read_until('READY', 20), server.output
+    node = Node('fib_client', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    client = ActionClient(node, Fibonacci, 'fibonacci')
+    assert client.wait_for_server(timeout_sec=20)
+
+    # a goal to its end, with feedback
+    feedback: list = []
+    sent = client.send_goal_async(Fibonacci.Goal(order=6), feedback_callback=feedback.append)
+    assert spin_until(executor, sent.done, 20)
+    handle = sent.result()
+    assert handle.accepted
+    result = handle.get_result_async()
+    assert spin_until(executor, result.done, 20)
+    assert result.result().status == GoalStatus.STATUS_SUCCEEDED
+    assert list(result.result().result.sequence) == [0, 1, 1, 2, 3, 5, 8]
+    assert [list(f.feedback.sequence) for f in feedback][-1] == [0, 1, 1, 2, 3, 5, 8]
+    assert all(bytes(f.goal_id.uuid) == bytes(handle.goal_id.uuid) for f in feedback)
+    assert spin_until(executor, lambda: handle.status == GoalStatus.STATUS_SUCCEEDED, 5)
+
+    # rejected by the goal callback
+    sent = client.send_goal_async(Fibonacci.Goal(order=-1))
+    assert spin_until(executor, sent.done, 20)
+    assert not sent.result().accepted
+
+    # cancelled while executing
+    sent = client.send_goal_async(Fibonacci.Goal(order=40))
+    assert spin_until(executor, sent.done, 20) and sent.result().accepted
+    handle = sent.result()
+    assert spin_until(executor, lambda: handle.status == GoalStatus.STATUS_EXECUTING, 10)
+    cancel = handle.cancel_goal_async()
+    assert spin_until(executor, cancel.done, 20)
+    assert cancel.result().return_code == CancelGoal.Response.ERROR_NONE
+    assert len(cancel.result().goals_canceling) == 1
+    result = handle.get_result_async()
+    assert spin_until(executor, result.done, 20)
+    assert result.result().status == GoalStatus.STATUS_CANCELED
+    assert server.read_until('CANCELED', 5)
+
+    # cancelling a finished goal is refused as terminated; an unknown goal's result is UNKNOWN
+    cancel = handle.cancel_goal_async()
+    assert spin_until(executor, cancel.done, 20)
+    assert cancel.result().return_code == CancelGoal.Response.ERROR_GOAL_TERMINATED
+    client.destroy()
+    node.destroy_node()
