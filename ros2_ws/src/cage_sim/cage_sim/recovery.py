@@ -3,7 +3,8 @@
 A restarted node learns the plan from a latched topic, but the plan starts where the mission started.
 Following it from its first waypoint would send the vehicle back to the mission start (and make the
 judge call the detour a "wander"), so a node that joins a mission under way starts from the plan's
-segment nearest the vehicle instead: the waypoints already behind it are dropped.
+segment nearest the vehicle instead: the waypoints already behind it are dropped. The simulator and
+the policy apply the same rule at the same decision, so the judge and the policy agree on the route.
 """
 from __future__ import annotations
 
@@ -24,5 +25,14 @@ def remaining_route(points: Sequence[Sequence[float]] | np.ndarray, xy: Sequence
     n2 = np.einsum("ij,ij->i", ab, ab)
     s = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(n2 > 0, n2, 1.0), 0.0, 1.0)
     d = np.linalg.norm(a + s[:, None] * ab - p, axis=1)
-    return pts[int(np.argmin(d)) + 1:].copy()
+    i = int(np.argmin(d))
+    if i == 0 and s[0] == 0.0:
+        return pts.copy()   # still before the first waypoint: nothing is behind
+    return pts[i + 1:].copy()
+
+
+def joining_under_way(first_mission_seen: bool, t_ns: int) -> bool:
+    """A node that starts following a mission as the first one it has seen, at a decision after the
+    clock's start, was (re)started while that mission ran: it must not fly the route from its start."""
+    return first_mission_seen and t_ns > 0
 
