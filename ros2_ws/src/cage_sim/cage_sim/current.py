@@ -72,6 +72,16 @@ class CurrentField:
     def velocity(self, x, y, t=0.0):
         """Water velocity at (x, y, t): scalars give a (vx, vy) tuple, arrays give two arrays."""
         scalar = np.ndim(x) == 0 and np.ndim(y) == 0
+        if scalar and self.modes:
+            vx, vy = self.uniform
+            for m in self.modes:
+                s = math.sin(m.kx * x + m.ky * y - m.omega * t + m.phase)
+                vx += m.ax * s
+                vy += m.ay * s
+            sp = math.hypot(vx, vy)
+            if sp > self.cap:
+                vx, vy = vx * self.cap / sp, vy * self.cap / sp
+            return vx, vy
         if self.is_uniform:
             if scalar:
                 return self.uniform

@@ -4,8 +4,9 @@ Why: fish react to vehicles (thruster noise, sudden moves: SINTEF/NTNU 2024, ../
 school that was in front of the sonar a second ago is elsewhere now. A policy or shield that treats
 returns as static is wrong about them, and the old to-and-fro oscillation never reacted to the vehicle.
 
-Each school is a circle (radius ``radius``) with a home point. Every update: if the vehicle is within
-``flee_radius`` of the school's edge it swims straight away at ``flee_speed``; otherwise it drifts back
+Each school is a circle (radius ``radius``) with a home point. Every update: once the vehicle comes within
+``flee_radius`` of the school's edge it swims straight away at ``flee_speed`` until the vehicle is
+``CALM`` (1.5) times that far; otherwise it drifts back
 toward home at ``return_speed`` while wandering on a slow circle of ``wander`` m about home. Schools stay
 ``margin`` m inside the nominal net. Deterministic given the seed (the only randomness is each school's
 wander phase, drawn once). The state is a (K, 2) array; ``circles()`` packs it for the sonar.
@@ -16,6 +17,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+CALM = 1.5   # a fleeing school stops fleeing at CALM * flee_radius (hysteresis: no dithering at the edge)
 
 
 @dataclass(frozen=True)
@@ -56,16 +59,21 @@ class FishState:
         self.radius = np.array([s.radius for s in self.schools], dtype=float)
         self.phase = np.random.default_rng(seed).uniform(0, 2 * math.pi, len(self.schools))
         self.t = 0.0
+        self._wander = np.array([s.wander for s in self.schools], dtype=float)
+        self._period = np.array([s.wander_period for s in self.schools], dtype=float)
+        self._flee_r = np.array([s.flee_radius for s in self.schools], dtype=float)
+        self._flee_v = np.array([s.flee_speed for s in self.schools], dtype=float)
+        self._ret_v = np.array([s.return_speed for s in self.schools], dtype=float)
+        self._limit = net_radius - self.radius - margin
+        self.fleeing = np.zeros(len(self.schools), dtype=bool)
 
     def __len__(self) -> int:
         return len(self.schools)
 
     def target(self, t: float) -> np.ndarray:
         """Where each school would be undisturbed at time ``t``: on its wander circle about home."""
-        w = np.array([s.wander for s in self.schools])
-        per = np.array([s.wander_period for s in self.schools])
-        a = self.phase + 2 * math.pi * t / np.maximum(per, 1e-9)
-        return self.home + w[:, None] * np.c_[np.cos(a), np.sin(a)]
+        a = self.phase + 2 * math.pi * t / self._period
+        return self.home + self._wander[:, None] * np.stack([np.cos(a), np.sin(a)], axis=1)
 
     def step(self, dt: float, vehicle_xy, substeps: int = 4) -> np.ndarray:
         """Advance ``dt`` seconds with the vehicle at ``vehicle_xy``; returns the (K, 2) positions."""
@@ -78,23 +86,22 @@ class FishState:
             self.t += h
             away = self.pos - v
             dist = np.hypot(away[:, 0], away[:, 1])
-            for k, s in enumerate(self.schools):
-                if dist[k] - s.radius < s.flee_radius:
-                    u = away[k] / dist[k] if dist[k] > 1e-9 else np.array([1.0, 0.0])
-                    self.pos[k] += s.flee_speed * h * u
-                else:
-                    to = self.target(self.t)[k] - self.pos[k]
-                    n = math.hypot(*to)
-                    if n > 1e-9:
-                        self.pos[k] += min(n, s.return_speed * h) * to / n
+            edge = dist - self.radius
+            self.fleeing = (edge < self._flee_r) | (self.fleeing & (edge < CALM * self._flee_r))
+            flee = self.fleeing
+            u = away / np.maximum(dist, 1e-9)[:, None]
+            u[dist <= 1e-9] = (1.0, 0.0)
+            to = self.target(self.t) - self.pos
+            n = np.hypot(to[:, 0], to[:, 1])
+            back = np.minimum(n, self._ret_v * h) / np.maximum(n, 1e-9)
+            self.pos = self.pos + np.where(flee[:, None], self._flee_v[:, None] * h * u, back[:, None] * to)
             # stay inside the net
             r = np.hypot(self.pos[:, 0], self.pos[:, 1])
-            lim = self.net_radius - self.radius - self.margin
-            over = r > lim
+            over = r > self._limit
             if np.any(over):
-                self.pos[over] *= (lim[over] / r[over])[:, None]
+                self.pos[over] *= (self._limit[over] / r[over])[:, None]
         return self.pos
 
     def circles(self) -> np.ndarray:
         """(K, 3) rows of (cx, cy, radius): the form the sonar kernels take."""
-        return np.c_[self.pos, self.radius].reshape(-1, 3)
+        return np.concatenate([self.pos, self.radius[:, None]], axis=1)

@@ -44,7 +44,7 @@ class ReturnMemory:
             return
         o = np.asarray(origins, dtype=float).reshape(-1, 3)[ok]
         a = o[:, 2] + np.asarray(angles, dtype=float)[ok]
-        pts = o[:, :2] + r[ok, None] * np.c_[np.cos(a), np.sin(a)]
+        pts = o[:, :2] + r[ok, None] * np.stack([np.cos(a), np.sin(a)], axis=1)
         self.points = np.concatenate([self.points, pts])[-self.max_points:]
         self.stamps = np.concatenate([self.stamps, np.asarray(stamps, dtype=float)[ok]])[-self.max_points:]
 

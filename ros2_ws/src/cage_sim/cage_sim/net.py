@@ -99,15 +99,19 @@ class NetShape:
         area = 0.5 * abs(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
         return 1.0 - area / (math.pi * self.radius ** 2)
 
+    @cached_property
+    def _segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        p = self.polygon
+        d = np.roll(p, -1, axis=0) - p
+        return p[:, 0].copy(), p[:, 1].copy(), d[:, 0].copy(), d[:, 1].copy(), (d * d).sum(axis=1)
+
     def clearance(self, x, y) -> float:
         """Signed distance from (x, y) to the wall: positive inside, negative outside."""
         if not self.deformed:
             return self.radius - math.hypot(x, y)
-        p = self.polygon
-        q = np.roll(p, -1, axis=0)
-        d = q - p
-        w = np.array([x, y]) - p
-        s = np.clip(np.einsum("ij,ij->i", w, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
-        dist = float(np.min(np.hypot(w[:, 0] - s * d[:, 0], w[:, 1] - s * d[:, 1])))
-        inside = math.hypot(x, y) <= float(self.r(math.atan2(y, x)))
+        px, py, dx, dy, dd = self._segments
+        wx, wy = x - px, y - py
+        s = np.clip((wx * dx + wy * dy) / dd, 0.0, 1.0)
+        dist = math.sqrt(float(np.min((wx - s * dx) ** 2 + (wy - s * dy) ** 2)))
+        inside = math.hypot(x, y) <= self.radius * (1.0 - self.push * 0.5 * (1.0 + math.cos(math.atan2(y, x) - self.upstream)))
         return dist if inside else -dist

@@ -107,8 +107,24 @@ def advance(x: float, y: float, yaw: float, heading_setpoint: float, dt: float, 
     h = dt / n
     for i in range(n):
         c = current.velocity(x, y, t + i * h)
-        x, y, yaw = propagate(x, y, yaw, heading_setpoint, h, params.speed, params.max_yaw_rate, c)
-    return x, y, yaw
+        x, y, yaw = _propagate_scalar(x, y, yaw, heading_setpoint, h, params.speed, params.max_yaw_rate, c)
+    return x, y, wrap_angle(yaw)
+
+
+def _propagate_scalar(x: float, y: float, yaw: float, sp: float, dt: float, speed: float, rate_max: float,
+                      c: tuple[float, float]) -> tuple[float, float, float]:
+    """``propagate`` for floats in plain ``math`` (the substep loop; ~10x less overhead than NumPy)."""
+    err = (sp - yaw + math.pi) % (2.0 * math.pi) - math.pi
+    t_turn = min(abs(err) / rate_max, dt)
+    rate = math.copysign(rate_max, err) if err != 0.0 else 0.0
+    yaw1 = yaw + rate * t_turn
+    if abs(rate * t_turn) > 1e-12:
+        ax = speed / rate * (math.sin(yaw1) - math.sin(yaw))
+        ay = -speed / rate * (math.cos(yaw1) - math.cos(yaw))
+    else:
+        ax, ay = speed * t_turn * math.cos(yaw), speed * t_turn * math.sin(yaw)
+    straight = speed * (dt - t_turn)
+    return (x + ax + straight * math.cos(yaw1) + c[0] * dt, y + ay + straight * math.sin(yaw1) + c[1] * dt, yaw1)
 
 
 def velocity_over_ground(yaw: float, speed: float, current: tuple[float, float]) -> tuple[float, float]:

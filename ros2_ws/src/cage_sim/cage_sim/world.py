@@ -14,6 +14,7 @@ the collision test use. The net the sonar and collision see is ``world.net`` (ne
 """
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Literal, Sequence
@@ -175,7 +176,15 @@ class World:
 
     def with_fish(self, circles: np.ndarray) -> "World":
         """This world with the schools at ``circles`` ((K, 3) rows of cx, cy, radius): a snapshot."""
-        return replace(self, fish=np.asarray(circles, dtype=np.float64).reshape(-1, 3))
+        new = copy.copy(self)   # shares the net polygon, the current field and the packed static obstacles
+        fish = np.ascontiguousarray(circles, dtype=np.float64).reshape(-1, 3)
+        object.__setattr__(new, "fish", fish)
+        object.__setattr__(new, "_fish", fish)
+        if self._static is not None:
+            base = self._static if not len(self._fish) else \
+                ObstacleArrays(self._static.squares, self._static.circles[: len(self._static.circles) - len(self._fish)])
+            object.__setattr__(new, "_static", new._with_fish(base))
+        return new
 
     def arrays(self, t: float = 0.0) -> ObstacleArrays:
         """All obstacles packed for the sonar at time ``t`` (cached when nothing moves)."""
