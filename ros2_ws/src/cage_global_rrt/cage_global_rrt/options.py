@@ -9,7 +9,8 @@ import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-PLANNERS: tuple[str, ...] = ("rrt", "rrtconnect", "rrtstar", "informedrrtstar")
+PLANNERS: tuple[str, ...] = ("rrt", "rrtconnect", "rrtstar", "informedrrtstar", "optimal")
+SAMPLING_PLANNERS: tuple[str, ...] = PLANNERS[:4]   # the OMPL ones
 
 
 def default_turning_radius() -> float:
@@ -25,9 +26,10 @@ def default_turning_radius() -> float:
 class PlannerOptions:
     """Knobs of one plan.
 
-    planner: rrt (the study's, default) | rrtconnect | rrtstar | informedrrtstar. The optimising
-    planners (RRT*, Informed RRT*) use the whole ``time_limit`` to improve the path; the others stop
-    at the first solution.
+    planner: rrt (the study's, default) | rrtconnect | rrtstar | informedrrtstar | optimal. The
+    optimising planners (RRT*, Informed RRT*) use the whole ``time_limit`` to improve the path; the
+    other OMPL ones stop at the first solution; ``optimal`` is the shortest path under the clearance
+    from a visibility graph built once per map (``visibility.py``; no OMPL, no sampling, no seed).
     max_step: the planner's range (m), the study's "max step size".
     clearance: required distance (m) from the path to every known obstacle and to the net.
     time_limit: planner time budget (s).
@@ -39,6 +41,11 @@ class PlannerOptions:
     dubins: plan over SE(2) with Dubins curves so no turn is tighter than ``turning_radius``.
     check_resolution: spacing (m) of the state checks along Dubins curves (straight segments are
     checked exactly, analytically).
+    flyable: round every corner of the (R^2) path with an arc of ``turning_radius`` whose clearance
+    is proven (``flyable.py``); the arcs are published as waypoints ``arc_spacing`` apart. Where the
+    arcs do not fit, the path is replanned on the visibility graph with more clearance; where that
+    fails too, the corner path is returned and its message says so.
+    arc_spacing: spacing (m) of the waypoints along the arcs of a flyable path.
     seed: OMPL RNG seed (>= 1) for reproducible plans; None = not reseeded.
     """
 
@@ -53,13 +60,16 @@ class PlannerOptions:
     turning_radius: float = default_turning_radius()
     check_resolution: float = 0.1
     seed: int | None = None
+    flyable: bool = False
+    arc_spacing: float = 0.5
 
     def error(self) -> str | None:
         """Why these options are unusable, or None when they are fine."""
         if self.planner not in PLANNERS:
             return f"planner must be one of {', '.join(PLANNERS)}, got {self.planner!r}"
         positive = {"max_step": self.max_step, "time_limit": self.time_limit,
-                    "turning_radius": self.turning_radius, "check_resolution": self.check_resolution}
+                    "turning_radius": self.turning_radius, "check_resolution": self.check_resolution,
+                    "arc_spacing": self.arc_spacing}
         for name, v in positive.items():
             if not _real(v) or v <= 0:
                 return f"{name} must be a positive number, got {v!r}"
@@ -72,9 +82,13 @@ class PlannerOptions:
         if self.seed is not None and (isinstance(self.seed, bool) or not isinstance(self.seed, int)
                                       or not 1 <= self.seed < 2 ** 32):
             return f"seed must be an integer in [1, 2**32) or None, got {self.seed!r}"
-        for name in ("simplify", "dubins"):
+        for name in ("simplify", "dubins", "flyable"):
             if not isinstance(getattr(self, name), bool):
                 return f"{name} must be a bool, got {getattr(self, name)!r}"
+        if self.dubins and self.planner == "optimal":
+            return "dubins needs a sampling planner (rrt, ...); the optimal planner's turns are rounded by flyable"
+        if self.dubins and self.flyable:
+            return "dubins and flyable exclude each other (Dubins curves are flyable already)"
         return None
 
     def with_(self, **changes: Any) -> "PlannerOptions":
@@ -102,7 +116,7 @@ NODE_PARAMETERS: dict[str, Any] = {
     "planner": "rrt", "max_step": 3.0, "clearance": 1.0, "time_limit": 1.0, "goal_bias": 0.05,
     "simplify": True, "waypoint_spacing": 1.0, "dubins": False,
     "turning_radius": default_turning_radius(), "check_resolution": 0.1, "planner_seed": 1,
-    "frame_id": "map",
+    "flyable": False, "arc_spacing": 0.5, "frame_id": "map",
 }
 
 

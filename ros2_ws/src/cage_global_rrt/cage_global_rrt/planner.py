@@ -13,12 +13,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .environment import CageEnvironment
+from .flyable import fillet
 from .geometry import point_valid, polyline_valid, segment_valid
 from .known_map import KnownMap, as_known_map
 from .lower_bound import VisibilityGraph
 from .options import PlannerOptions
 from .postprocess import drop_duplicates, headings, path_length, resample, shortcut
 from .status import PlanStatus
+from .visibility import OptimalGraph, optimal_graph
+
+# Extra clearance (m) for the flyable mode's replans when the arcs of a path do not fit.
+FLYABLE_EXTRA = (0.5, 1.0, 1.5, 2.0, 3.0)
 
 
 @dataclass
@@ -38,6 +43,8 @@ class PlanResult:
     vertices: int | None = None  # tree vertices (only with collect_tree)
     tree: list | None = None     # tree edges ((x0, y0), (x1, y1)) (only with collect_tree)
     planner: str = ""
+    flyable: bool | None = None  # flyable mode: True = corners rounded, False = corners kept; None = off
+    arcs: list | None = None     # flyable mode: (centre x, centre y, radius) per rounded corner
 
     @property
     def ok(self) -> bool:
@@ -55,6 +62,8 @@ class GlobalPlanner:
         self.kmap: KnownMap | None = None
         self._env: CageEnvironment | None = None
         self._graph: VisibilityGraph | None = None
+        self._checked: PlannerOptions | None = None
+        self._options_error: str | None = None
         if world_or_map is not None:
             self.set_map(world_or_map)
 
@@ -71,20 +80,30 @@ class GlobalPlanner:
             self._graph = None
 
     def prepare(self) -> None:
-        """Build the OMPL setup and load the compiled kernels ahead of the first request."""
-        env = self.env
+        """Build the OMPL setup (sampling planners) or the visibility graph (optimal) and load the
+        compiled kernels ahead of the first request."""
         k = self.kmap
+        margin = CageEnvironment.check_margin(self.options)
+        if self.options.planner == "optimal":
+            self.optimal.shortest_path((0.0, 0.0), (0.0, 0.0))
+        else:
+            self.env  # noqa: B018 - builds it
         pts = np.zeros((2, 2))
-        polyline_valid(pts, k.net_radius, env.margin, k.squares, k.circles)
-        point_valid(0.0, 0.0, k.net_radius, env.margin, k.squares, k.circles)
-        segment_valid(0.0, 0.0, 1.0, 0.0, k.net_radius, env.margin, k.squares, k.circles)
-        shortcut(np.zeros((3, 2)), k, env.margin)
+        polyline_valid(pts, k.net_radius, margin, k.squares, k.circles)
+        point_valid(0.0, 0.0, k.net_radius, margin, k.squares, k.circles)
+        segment_valid(0.0, 0.0, 1.0, 0.0, k.net_radius, margin, k.squares, k.circles)
+        shortcut(np.zeros((3, 2)), k, margin)
 
     @property
     def env(self) -> CageEnvironment:
         if self._env is None:
             self._env = CageEnvironment(self.kmap, self.options)
         return self._env
+
+    @property
+    def optimal(self) -> OptimalGraph:
+        """The shortest-path graph at the clearance (cached by map content across planners)."""
+        return optimal_graph(self.kmap, self.options.clearance)
 
     @property
     def graph(self) -> VisibilityGraph:
@@ -106,7 +125,9 @@ class GlobalPlanner:
     def _plan(self, start, goal, collect_tree: bool) -> PlanResult:
         if self.kmap is None:
             return PlanResult(PlanStatus.NO_MAP, "no map set")
-        err = self.options.error()
+        if self._checked is not self.options:   # options are frozen: validate each object once
+            self._options_error, self._checked = self.options.error(), self.options
+        err = self._options_error
         if err:
             return PlanResult(PlanStatus.INVALID_INPUT, f"options: {err}")
         s, g = parse_pose(start, "start"), parse_pose(goal, "goal")
@@ -116,12 +137,20 @@ class GlobalPlanner:
         bad = self._endpoint_failure(s, g)
         if bad:
             return bad
-        env = self.env
         if not GlobalPlanner._kernels_ready:
             # Compile (or load from numba's cache) the kernels before the clock of the solve starts: in a
             # fresh checkout the first compilation takes seconds and would eat the time limit.
             self.prepare()
             GlobalPlanner._kernels_ready = True
+        if self.options.planner == "optimal":
+            t0 = time.perf_counter()
+            length, pts = self.optimal.shortest_path(s, g)
+            base = dict(raw_path=pts.copy(), solve_time=time.perf_counter() - t0)
+            if not math.isfinite(length):
+                return PlanResult(PlanStatus.NO_VALID_PATH, "goal not reachable from start on the known map "
+                                                            f"with {self.options.clearance:g} m clearance", **base)
+            return self._finish(pts, None, base, s, g)
+        env = self.env
         start_yaw = s[2] if len(s) > 2 else math.atan2(g[1] - s[1], g[0] - s[0])
         goal_yaw = g[2] if len(g) > 2 else math.atan2(g[1] - s[1], g[0] - s[0])
         out = env.solve(s[:2], g[:2], start_yaw, goal_yaw, collect_tree)
@@ -131,17 +160,42 @@ class GlobalPlanner:
             return self._failure(s, g, out.ompl_status, base)
         if env.dubins:
             dense = drop_duplicates(env.dubins_polyline(self.options.waypoint_spacing))
-            pts, yaw = dense[:, :2], dense[:, 2]
-        else:
-            pts = shortcut(out.states, self.kmap, env.margin) if self.options.simplify else out.states
-            pts = resample(pts, self.options.waypoint_spacing)
+            return self._finish(dense[:, :2], dense[:, 2], base, s, g)
+        pts = shortcut(out.states, self.kmap, env.margin) if self.options.simplify else out.states
+        return self._finish(pts, None, base, s, g)
+
+    def _finish(self, pts: np.ndarray, yaw: np.ndarray | None, base: dict, s, g) -> PlanResult:
+        """Round the corners (flyable mode), resample, check the clearance once more, report."""
+        o, k = self.options, self.kmap
+        extra = {}
+        if o.flyable:
+            pts, arcs, note = self._flyable(pts, s, g)
+            extra = dict(flyable=arcs is not None, arcs=arcs or [])
+        if yaw is None:
+            pts = resample(pts, o.waypoint_spacing)
             yaw = headings(pts)
         pts = np.ascontiguousarray(pts, dtype=np.float64)
-        if not polyline_valid(pts, self.kmap.net_radius, self.options.clearance - 1e-9,
-                              self.kmap.squares, self.kmap.circles):
+        if not polyline_valid(pts, k.net_radius, o.clearance - 1e-9, k.squares, k.circles):
             return PlanResult(PlanStatus.NO_VALID_PATH, "post-processed path failed the clearance check", **base)
-        return PlanResult(PlanStatus.SUCCESS, f"{len(pts)} waypoints, {path_length(pts):.2f} m",
-                          pts, yaw, length=path_length(pts), **base)
+        length = path_length(pts)
+        msg = f"{len(pts)} waypoints, {length:.2f} m" + (note if o.flyable else "")
+        return PlanResult(PlanStatus.SUCCESS, msg, pts, yaw, length=length, **base, **extra)
+
+    def _flyable(self, pts: np.ndarray, s, g):
+        """(points, arcs or None, message suffix): the path's corners rounded, or a path replanned with
+        more clearance whose corners can be rounded, or the corner path when neither works."""
+        o, k = self.options, self.kmap
+        done = fillet(pts, k, o.clearance, o.turning_radius, o.arc_spacing)
+        if done is None:
+            for extra in FLYABLE_EXTRA:
+                length, alt = optimal_graph(k, o.clearance + extra).shortest_path(s, g, endpoint_margin=o.clearance)
+                if math.isfinite(length):
+                    done = fillet(alt, k, o.clearance, o.turning_radius, o.arc_spacing)
+                    if done is not None:
+                        break
+        if done is None:
+            return pts, None, f"; corners kept: no arcs of radius {o.turning_radius:g} m fit with the clearance"
+        return done[0], done[1], f", {len(done[1])} arcs of radius {o.turning_radius:g} m"
 
     def _endpoint_failure(self, s, g) -> PlanResult | None:
         """Nav2-style start/goal codes: outside the net, or inside an inflated obstacle/net margin."""
