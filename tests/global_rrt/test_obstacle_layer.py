@@ -1,0 +1,106 @@
+"""Obstacle layer: real simulated sonar scans (cage_sim.sonar) confirm, cluster and forget returns,
+and a replan on the layer's map avoids what the sonar confirmed."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cage_sim.sonar import make_sonar
+from cage_sim.world import Obstacle, World, segment_clearance
+from cage_global_rrt import GlobalPlanner, KnownMap, PlannerOptions
+from cage_global_rrt.obstacle_layer import LayerParams, ObstacleLayer
+
+SONAR = make_sonar("study")
+KNOWN = (Obstacle("square", -10.0, 8.0, 2.0),)
+UNKNOWN = Obstacle("circle", 0.0, 0.0, 1.5)
+WITH = World(30.0, KNOWN, (UNKNOWN,))
+WITHOUT = World(30.0, KNOWN, ())
+POSE = (-8.0, 0.0, 0.0)
+
+
+def scan(layer: ObstacleLayer, world: World, pose=POSE) -> None:
+    layer.update(pose, SONAR.scan(world, *pose), SONAR.angles, SONAR.max_range)
+
+
+def layer() -> ObstacleLayer:
+    return ObstacleLayer(KnownMap.from_world(WITHOUT))
+
+
+def test_confirmed_after_enough_scans_only():
+    lay = layer()
+    for _ in range(LayerParams().confirm_scans - 1):
+        scan(lay, WITH)
+    assert lay.obstacles() == []
+    scan(lay, WITH)
+    obs = lay.obstacles()
+    assert len(obs) == 1, obs
+    ob = obs[0]
+    # the circle covers the part of the obstacle the sonar saw and sits on it
+    assert math.hypot(ob.x - UNKNOWN.x, ob.y - UNKNOWN.y) < UNKNOWN.size + 0.5
+    assert math.hypot(ob.x + 8.0, ob.y) - ob.size <= 8.0 - UNKNOWN.size + 1e-6
+
+
+def test_known_obstacles_and_net_are_not_added():
+    lay = layer()
+    for pose in (POSE, (-10.0, 3.0, math.pi / 2), (20.0, 0.0, 0.0)):
+        for _ in range(4):
+            scan(lay, WITHOUT, pose)
+    assert lay.obstacles() == []
+
+
+def test_forgotten_when_the_sonar_sees_through_it():
+    lay = layer()
+    for _ in range(4):
+        scan(lay, WITH)
+    assert lay.obstacles()
+    v = lay.version
+    for _ in range(LayerParams().forget_scans):
+        scan(lay, WITHOUT)
+    assert lay.obstacles() == [] and lay.version > v
+
+
+def test_not_forgotten_while_out_of_view():
+    lay = layer()
+    for _ in range(4):
+        scan(lay, WITH)
+    far = (25.0, -10.0, 0.0)   # farther than the sonar's range from the obstacle
+    for _ in range(10):
+        scan(lay, WITHOUT, far)
+    assert len(lay.obstacles()) == 1
+
+
+def test_replan_on_the_layer_avoids_the_confirmed_return():
+    lay = layer()
+    for _ in range(4):
+        scan(lay, WITH)
+    opts = PlannerOptions(planner="optimal")
+    goal = (10.0, 0.0)
+    blind = GlobalPlanner(KnownMap.from_world(WITHOUT), opts).plan(POSE, goal)
+    aware = GlobalPlanner(lay.planning_map(free=(POSE, goal), clearance=1.0), opts).plan(POSE, goal)
+    assert blind.ok and aware.ok
+    assert segment_clearance(WITH, blind.waypoints, 0.05) < 0        # straight through it
+    assert segment_clearance(WITH, aware.waypoints, 0.05) >= 1.0 - 1e-6
+
+
+def test_planning_map_keeps_the_vehicle_free():
+    lay = layer()
+    for _ in range(4):
+        scan(lay, WITH)
+    near = (-2.2, 0.0)           # 0.7 m from the obstacle's surface
+    km = lay.planning_map(free=(near,), clearance=1.0)
+    r = GlobalPlanner(km, PlannerOptions(planner="optimal")).plan(near, (-10.0, -10.0))
+    assert r.ok, r.message
+
+
+@pytest.mark.parametrize("bad", [dict(cell=0.0), dict(confirm_scans=0), dict(pad=-1.0), dict(forget_scans=1.5)])
+def test_bad_params(bad):
+    with pytest.raises(ValueError, match=next(iter(bad))):
+        ObstacleLayer(KnownMap.from_world(WITHOUT), LayerParams(**bad))
+
+
+def test_non_finite_pose_is_ignored():
+    lay = layer()
+    lay.update((math.nan, 0.0, 0.0), SONAR.scan(WITH, *POSE), SONAR.angles, SONAR.max_range)
+    assert lay.scans == 0 and not lay.cells
