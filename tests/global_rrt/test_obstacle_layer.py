@@ -10,7 +10,7 @@ import pytest
 from cage_sim.sonar import make_sonar
 from cage_sim.world import Obstacle, World, segment_clearance
 from cage_global_rrt import GlobalPlanner, KnownMap, PlannerOptions
-from cage_global_rrt.obstacle_layer import LayerParams, ObstacleLayer
+from cage_global_rrt.obstacle_layer import LayerParams, ObstacleLayer, plan_with_layer
 
 SONAR = make_sonar("study")
 KNOWN = (Obstacle("square", -10.0, 8.0, 2.0),)
@@ -84,14 +84,20 @@ def test_replan_on_the_layer_avoids_the_confirmed_return():
     assert segment_clearance(WITH, aware.waypoints, 0.05) >= 1.0 - 1e-6
 
 
-def test_planning_map_keeps_the_vehicle_free():
+def test_replan_next_to_a_confirmed_obstacle_leaves_it_first():
     lay = layer()
     for _ in range(4):
         scan(lay, WITH)
-    near = (-2.2, 0.0)           # 0.7 m from the obstacle's surface
-    km = lay.planning_map(free=(near,), clearance=1.0)
-    r = GlobalPlanner(km, PlannerOptions(planner="optimal")).plan(near, (-10.0, -10.0))
+    near = (-2.2, 0.0)           # 0.7 m from the obstacle's surface: inside the layer's margin
+    goal = (10.0, 0.5)           # behind it
+    planner = GlobalPlanner(KnownMap.from_world(WITHOUT), PlannerOptions(planner="optimal"))
+    r = plan_with_layer(planner, lay, near, goal)
     assert r.ok, r.message
+    assert np.allclose(r.waypoints[0], near) and np.allclose(r.waypoints[-1], goal)
+    d = [WITH.clearance(x, y) for x, y in r.waypoints]
+    assert d[1] > d[0]                                                # first it moves away
+    assert segment_clearance(WITH, r.waypoints[1:], 0.05) >= 1.0 - 1e-6
+    assert len(r.headings) == len(r.waypoints)
 
 
 @pytest.mark.parametrize("bad", [dict(cell=0.0), dict(confirm_scans=0), dict(pad=-1.0), dict(forget_scans=1.5)])

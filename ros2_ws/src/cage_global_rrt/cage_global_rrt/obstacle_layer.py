@@ -23,6 +23,7 @@ import numpy as np
 from cage_sim.world import Obstacle
 
 from .known_map import KnownMap
+from .planner import GlobalPlanner, PlanResult
 
 
 @dataclass(frozen=True)
@@ -187,6 +188,25 @@ class ObstacleLayer:
         out.sort(key=lambda o: (o.x, o.y))
         return out
 
+    def exit_point(self, pose, clearance: float) -> tuple[float, float]:
+        """Where a vehicle that stopped next to a confirmed obstacle (closer than the clearance to
+        its circle) should start the replan: pushed straight away from the circle's centre to
+        ``clearance`` (+1 cm) outside it. The move only increases the distance to that obstacle, so
+        the replan keeps the obstacles at full size instead of shrinking them around the vehicle."""
+        x, y = float(pose[0]), float(pose[1])
+        for _ in range(3):   # a push out of one circle can land in a neighbour's margin
+            moved = False
+            for ob in self.obstacles():
+                d = math.hypot(x - ob.x, y - ob.y)
+                need = ob.size + clearance + 0.01
+                if d < need:
+                    ux, uy = ((x - ob.x) / d, (y - ob.y) / d) if d > 1e-9 else (1.0, 0.0)
+                    x, y = ob.x + need * ux, ob.y + need * uy
+                    moved = True
+            if not moved:
+                break
+        return x, y
+
     def planning_map(self, free=(), clearance: float = 0.0) -> KnownMap:
         """The known map plus the layer's circles. A circle is shrunk (or dropped) so that every
         point in ``free`` (the vehicle's pose, the goal) keeps ``clearance``: a vehicle next to a
@@ -202,3 +222,23 @@ class ObstacleLayer:
         known = [Obstacle("square", x, y, 2.0 * h) for x, y, h in k.squares]
         known += [Obstacle("circle", x, y, r) for x, y, r in k.circles]
         return KnownMap.from_obstacles(k.net_radius, known + circles)
+
+
+def plan_with_layer(planner: GlobalPlanner, layer: ObstacleLayer | None, pose, goal) -> PlanResult:
+    """A (re)plan that uses the layer: leave a confirmed obstacle the vehicle stopped next to
+    (``exit_point``), plan on the known map plus the layer, and prepend the vehicle's position.
+    ``layer`` None plans on the layer's known map alone (the same as before the layer existed).
+    The node and the offline evaluation both call this."""
+    if layer is None:
+        return planner.plan(pose, goal)
+    clearance = planner.options.clearance
+    exit_ = layer.exit_point(pose, clearance)
+    planner.set_map(layer.planning_map(free=(exit_, goal), clearance=clearance))
+    res = planner.plan(exit_, goal)
+    if res.ok and math.hypot(exit_[0] - pose[0], exit_[1] - pose[1]) > 1e-9:
+        head = np.array([[float(pose[0]), float(pose[1])]])
+        yaw = math.atan2(exit_[1] - pose[1], exit_[0] - pose[0])
+        res.waypoints = np.vstack((head, res.waypoints))
+        res.headings = np.concatenate(([yaw], res.headings))
+        res.length += math.hypot(exit_[0] - pose[0], exit_[1] - pose[1])
+    return res
