@@ -2,7 +2,10 @@
 
 Scene: the study's cage (30 m net, 20 known 2 x 2 m squares) plus 10 unknown obstacles, 72 beams,
 20 m range. Targets (issue 2): >= 50,000 scans/s batched, <= 30 us per single scan, on one core
-(numba kernels run on one thread). Prints a table, then one JSON line of the figures.
+(numba kernels run on one thread). Then the sensor profiles (issue 9): batched scans/s of each profile
+in the same cage and under a 0.3 m/s current that deforms the net (the polygon wall), a mechanical
+head's decision updates/s, and env steps/s of a sea-ready setting (fls + memory + velocity, family
+``cage?current=0.5&obstacles=small&schools=3``). Prints tables, then one JSON line of the figures.
 
     .venv/bin/python benchmarks/bench_sim.py [--seconds 2] [--batch 1024]
 """
@@ -17,7 +20,9 @@ import numpy as np
 from cage_sim.controller import ArcController
 from cage_sim.env import CageNavEnv, CageNavVecEnv
 from cage_sim.scenarios import CageParams, generate_cage
-from cage_sim.sonar import SonarModel
+from cage_sim.mission import EnvConfig
+from cage_sim.sonar import PROFILE_NAMES, SonarModel, make_sonar
+from cage_sim.world import World
 
 
 def rate(fn, seconds: float, per_call: int = 1) -> float:
@@ -72,6 +77,36 @@ def main() -> None:
     targets = {"scan_single_us": "<= 30", "scans_per_s_batched_one_world": ">= 50000"}
     for k, v in figures.items():
         print(f"{k:34s} {v:12.1f}  {targets.get(k, '')}")
+
+    # --- sensor profiles
+    deformed = World(world.net_radius, world.known, world.unknown, (0.3, 0.0), world.safety_radius, net_loss=None)
+    print(f"\n{'profile':14s} {'beams':>5s} {'scans/s batched':>16s} {'deformed net':>14s}")
+    for name in PROFILE_NAMES:
+        s = make_sonar(name)
+        a = rate(lambda: s.scan_batch([world], poses), args.seconds, args.batch)
+        b = rate(lambda: s.scan_batch([deformed], poses), args.seconds, args.batch)
+        figures[f"{name}_scans_per_s"], figures[f"{name}_scans_per_s_deformed_net"] = a, b
+        print(f"{name:14s} {s.n_beams:5d} {a:16.0f} {b:14.0f}")
+    sc_sonar = make_sonar("scanning")
+    head = sc_sonar.head()
+    head.reset(world, x, y, yaw, 0.0)
+    clock = [0.0]
+
+    def head_step():
+        clock[0] += 1.0
+        head.update(world, x, y, yaw, clock[0])
+    figures["scanning_head_decisions_per_s"] = rate(head_step, args.seconds)
+    sea = CageNavEnv("cage?current=0.5&obstacles=small&schools=3",
+                     EnvConfig(sonar="fls", velocity=True, memory_bins=72))
+    sea.reset(seed=0)
+
+    def sea_step():
+        _, _, term, trunc, _ = sea.step(zero)
+        if term or trunc:
+            sea.reset()
+    figures["sea_env_steps_per_s_fls_memory"] = rate(sea_step, args.seconds)
+    print(f"scanning head decision updates/s (45 beams each) {figures['scanning_head_decisions_per_s']:10.0f}")
+    print(f"env steps/s, fls + memory + velocity, 0.5 m/s, 3 schools {figures['sea_env_steps_per_s_fls_memory']:8.0f}")
     print(json.dumps({k: round(v, 2) for k, v in figures.items()}))
 
 

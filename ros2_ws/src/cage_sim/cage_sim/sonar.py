@@ -503,34 +503,68 @@ def _wrap(a):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _ray_poly(px, py, dx, dy, poly, p0, p1):
-    """Ray from inside a closed polygon (vertices p0..p1-1) to its wall; 0 when starting outside."""
-    best = math.inf
-    inside = False
+def _ray_poly(px, py, dx, dy, poly, p0, p1, max_range, r_in, r_out):
+    """Ray from inside the deformed net to its wall; 0 when starting outside, inf beyond ``max_range``.
+
+    The wall is ``NetShape.polygon``: vertex k at map angle k * 2pi/n, star-shaped about the origin and
+    between the circles of radius min|v| and max|v|. So only the stretch of the ray between leaving
+    the inner circle and leaving the outer one (or max range) can meet it, and along a line the angle
+    seen from the origin is monotonic: only the edges in that angular span are tested (a few, not n).
+    ``r_in`` / ``r_out``: the smallest / largest vertex radius (``_radii``, once per scan).
+    """
     n = p1 - p0
-    for k in range(n):
+    step = 2.0 * math.pi / n
+    rp = math.hypot(px, py)
+    if rp >= r_out:
+        return 0.0
+    if rp > r_in:   # between the circles: inside iff on the origin's side of the chord at its angle
+        k = int(math.floor((math.atan2(py, px) % (2.0 * math.pi)) / step)) % n
         ax, ay = poly[p0 + k, 0], poly[p0 + k, 1]
         j = p0 + (k + 1) % n
         bx, by = poly[j, 0], poly[j, 1]
-        # even-odd crossing test for the start point
-        if (ay > py) != (by > py):
-            xc = ax + (py - ay) * (bx - ax) / (by - ay)
-            if px < xc:
-                inside = not inside
-        ex, ey = bx - ax, by - ay
+        if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
+            return 0.0
+    b = px * dx + py * dy
+    t_in = 0.0 if rp >= r_in else -b + math.sqrt(max(b * b - (rp * rp - r_in * r_in), 0.0))
+    if t_in > max_range:
+        return math.inf
+    t_end = min(-b + math.sqrt(max(b * b - (rp * rp - r_out * r_out), 0.0)), max_range)
+    x0, y0 = px + t_in * dx, py + t_in * dy
+    x1, y1 = px + t_end * dx, py + t_end * dy
+    k0 = int(math.floor((math.atan2(y0, x0) % (2.0 * math.pi)) / step)) % n
+    k1 = int(math.floor((math.atan2(y1, x1) % (2.0 * math.pi)) / step)) % n
+    ccw = px * dy - py * dx >= 0.0
+    best = math.inf
+    k = k0
+    for _ in range(n):
+        ax, ay = poly[p0 + k, 0], poly[p0 + k, 1]
+        j = p0 + (k + 1) % n
+        ex, ey = poly[j, 0] - ax, poly[j, 1] - ay
         den = dx * ey - dy * ex
-        if den == 0.0:
-            continue
-        wx, wy = ax - px, ay - py
-        t = (wx * ey - wy * ex) / den
-        u = (wx * dy - wy * dx) / den
-        if t >= 0.0 and 0.0 <= u <= 1.0 and t < best:
-            best = t
-    return best if inside else 0.0
+        if den != 0.0:
+            wx, wy = ax - px, ay - py
+            t = (wx * ey - wy * ex) / den
+            u = (wx * dy - wy * dx) / den
+            if t >= 0.0 and -1e-12 <= u <= 1.0 + 1e-12 and t < best:
+                best = t
+        if k == k1:
+            break
+        k = (k + 1) % n if ccw else (k - 1) % n
+    return best if best <= max_range else math.inf
 
 
 @numba.njit(cache=True, fastmath=False)
-def _net_cone(px, py, a, hw, net_r, poly, p0, p1):
+def _radii(poly, p0, p1):
+    r_in, r_out = math.inf, 0.0
+    for k in range(p0, p1):
+        r = math.hypot(poly[k, 0], poly[k, 1])
+        r_in = min(r_in, r)
+        r_out = max(r_out, r)
+    return r_in, r_out
+
+
+@numba.njit(cache=True, fastmath=False)
+def _net_cone(px, py, a, hw, net_r, poly, p0, p1, max_range, r_in, r_out):
     """Nearest net echo within +-hw of direction a. Round net: exact (the nearest wall point lies
     toward the outward direction, else on the cone edge nearest it). Deformed net: rays 1 deg apart."""
     if p1 > p0:
@@ -538,7 +572,7 @@ def _net_cone(px, py, a, hw, net_r, poly, p0, p1):
         best = math.inf
         for q in range(n_sub):
             b = a if n_sub == 1 else a - hw + 2.0 * hw * q / (n_sub - 1)
-            t = _ray_poly(px, py, math.cos(b), math.sin(b), poly, p0, p1)
+            t = _ray_poly(px, py, math.cos(b), math.sin(b), poly, p0, p1, max_range, r_in, r_out)
             if t < best:
                 best = t
         return best
@@ -593,6 +627,7 @@ def _cone_into(px, py, yaw, angles, hw, net_r, poly, p0, p1, squares, s0, s1, ci
                max_range, out, keep):
     # Cull once per scan by range, and note each kept obstacle's bearing and angular half-size, so a
     # beam only tests the obstacles its cone can overlap.
+    r_in, r_out = _radii(poly, p0, p1) if p1 > p0 else (net_r, net_r)
     n_all = (s1 - s0) + (c1 - c0)
     bear = np.empty(n_all)
     half = np.empty(n_all)
@@ -616,7 +651,7 @@ def _cone_into(px, py, yaw, angles, hw, net_r, poly, p0, p1, squares, s0, s1, ci
             nc += 1
     for i in range(angles.shape[0]):
         a = yaw + angles[i]
-        best = _net_cone(px, py, a, hw, net_r, poly, p0, p1)
+        best = _net_cone(px, py, a, hw, net_r, poly, p0, p1, max_range, r_in, r_out)
         for j in range(nk):
             if abs(_wrap(angles[i] - bear[j])) > hw + half[j] + 1e-9:
                 continue
