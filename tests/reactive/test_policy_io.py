@@ -42,7 +42,9 @@ def test_layout_mismatch_is_refused_naming_the_field(saved):
     meta["observation_layout"]["n_beams"] = 36
     mpath.write_text(json.dumps(meta))
     with pytest.raises(PolicyLoadError, match="n_beams: file has 36"):
-        load_policy(wpath)
+        load_policy(wpath, layout=ObservationLayout())          # what the node builds
+    with pytest.raises(PolicyLoadError, match="network obs_dim is 74, the layout has 38"):
+        load_policy(wpath)                                      # the file disagrees with itself
 
 
 def test_other_build_layout_is_refused(saved):

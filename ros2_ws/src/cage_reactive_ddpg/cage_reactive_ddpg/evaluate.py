@@ -171,24 +171,34 @@ def plot_tracks(path: str | Path, scenarios: list[Scenario], results: list[Episo
     plt.close(fig)
 
 
-def load_driver(spec: str | None, shield: bool = True):
-    """``baseline`` -> ArcController; else a policy file (None = the shipped one), behind the safety
-    shield unless ``shield`` is off (as the policy node runs it)."""
+def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None):
+    """``baseline`` -> ArcController (over the ``sensor`` profile's scan); else a policy file (None =
+    the shipped one), behind the safety shield unless ``shield`` is off (as the policy node runs it)."""
     if spec == "baseline":
-        return ArcController(), "baseline (ArcController)", None
+        return ArcController(EnvConfig(sonar=sensor or "study").layout), "baseline (ArcController)", None
     from .policy import load_policy
-    pol = load_policy(spec)
+    pol = load_policy(spec, profile=sensor)
     if shield:
         return SafetyShield(pol, ArcController(pol.layout)), f"policy {pol.path} + shield", pol.metadata
     return pol, f"policy {pol.path}", pol.metadata
 
 
+def driver_env(meta: dict | None, a: argparse.Namespace) -> EnvConfig:
+    """The policy's own training EnvConfig (sensor, observation, motion), or for the baseline alone
+    the study's v1 with ``--sensor``."""
+    from .policy import env_config_for
+    if meta:
+        return env_config_for(meta, a.motion)
+    return EnvConfig(motion=a.motion or "continuous", sonar=a.sensor or "study")
+
+
 def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
-             planner: str = "none", keep_tracks: int = 9, progress: bool = False):
+             planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None):
     """(summary dict, scenarios, results) for ``episodes`` seeded episodes."""
     routes = waypoint_fn(planner)
     scs = episode_scenarios(scenario, episodes, seed, routes)
-    res = run_missions(driver, scs, EnvConfig(motion=motion), keep_tracks=keep_tracks, progress=progress)
+    env = env or EnvConfig(motion=motion)
+    res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress)
     summary = summarize(res)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))
@@ -210,6 +220,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--sensor", default=None,
+                    help="sonar profile for the baseline alone (a policy uses the one it was trained with)")
     ap.add_argument("--matrix", default=None, help="sea-condition matrix: a name (sea, sea_small, tiny) or a YAML file")
     ap.add_argument("--drivers", default="raw,shield,baseline",
                     help="with --matrix: which of raw, shield, baseline to run (comma-separated)")
@@ -222,10 +234,11 @@ def main(argv: list[str] | None = None) -> int:
     if a.matrix:
         return matrix_main(a)
     try:   # a missing or mismatched policy, a bad scenario: one clear line, no traceback
-        driver, name, meta = load_driver(a.policy, a.shield == "on")
-        motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
+        driver, name, meta = load_driver(a.policy, a.shield == "on", a.sensor)
+        env = driver_env(meta, a)
+        motion = env.motion
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
-                                     keep_tracks=9 if a.plot else 0, progress=not a.quiet)
+                                     keep_tracks=9 if a.plot else 0, progress=not a.quiet, env=env)
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
@@ -240,13 +253,13 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _reused(a: argparse.Namespace, name: str, motion: str) -> list[dict]:
+def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str) -> list[dict]:
     """Rows of an earlier run of the same matrix on the same missions (``--reuse``), checked."""
     if not a.reuse:
         return []
     old = json.loads(Path(a.reuse).read_text())
     for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                      ("motion", motion)):
+                      ("motion", motion), ("sensor", sensor)):
         if old.get(key) != mine:
             raise ValueError(f"--reuse {a.reuse}: {key} is {old.get(key)!r} there, {mine!r} here")
     return list(old["rows"])
@@ -263,15 +276,15 @@ def matrix_main(a: argparse.Namespace) -> int:
             raise ValueError(f"--drivers: unknown {bad} (raw, shield, baseline)")
         drivers, meta = {}, None
         for d in wanted:
-            if d == "baseline":
-                drivers[d] = ArcController()
-            else:
-                drv, _, meta = load_driver(a.policy, shield=(d == "shield"))
-                drivers[d] = drv
-        motion = a.motion or ((meta or {}).get("config", {}).get("motion") or "continuous")
-        old = _reused(a, name, motion)
+            if d != "baseline":
+                drivers[d], _, meta = load_driver(a.policy, shield=(d == "shield"), sensor=a.sensor)
+        env = driver_env(meta, a)
+        if "baseline" in wanted:
+            drivers["baseline"] = ArcController(env.layout)     # the same scan (and memory) as the policy
+        motion = env.motion
+        old = _reused(a, name, motion, env.sonar.profile)
         rows = mx.run_matrix(cells, {d: v for d, v in drivers.items() if d not in {r["driver"] for r in old}},
-                             a.episodes, a.seed, a.planner, motion, progress=not a.quiet)
+                             a.episodes, a.seed, a.planner, env, progress=not a.quiet)
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
@@ -281,15 +294,16 @@ def matrix_main(a: argparse.Namespace) -> int:
     prefix.parent.mkdir(parents=True, exist_ok=True)
     policy = str(a.policy or "shipped policy")
     if a.reuse:
-        policy += f" (rows of {sorted({r['driver'] for r in _reused(a, name, motion)})} from {a.reuse})"
-    title = (f"matrix {name}: {a.episodes} missions per cell, seed {a.seed}, planner {a.planner}, "
-             f"policy {Path(policy).name}")
+        policy += f" (rows of {sorted({r['driver'] for r in _reused(a, name, motion, env.sonar.profile)})} from {a.reuse})"
+    title = (f"matrix {name}: sensor {env.sonar.profile}, {a.episodes} missions per cell, seed {a.seed}, "
+             f"planner {a.planner}, policy {Path(policy).name}")
     md = mx.markdown(rows, title)
     print(md)
     prefix.with_suffix(".md").write_text(md)
     mx.write_csv(rows, prefix.with_suffix(".csv"))
     prefix.with_suffix(".json").write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
+         "sensor": env.sonar.profile,
          "policy": policy, "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)

@@ -2,10 +2,12 @@
 
 Why one module: the trainer's randomisation and the evaluator's matrix must draw their missions from
 the same generator, or a policy is scored on conditions it never met in a different way than it met
-them. A ``Condition`` is one cell: current speed (m/s, random direction), obstacle size (``standard``:
-the cage's 0.3-2 m obstacles; ``small``: circles of 0.15-0.3 m radius, between the study's 5 deg
-beams beyond ~2-3 m), goal placement (``any``, or ``near_net``: 2.5 m from the net wall) and the
-number of moving fish schools. Scenario names (usable wherever a scenario spec is, e.g. ``train
+them; both go through cage_sim's scenario families (``make_generator``), the simulator's one
+definition of sea conditions. A ``Condition`` is one cell: current speed (m/s inside the pen, random
+direction, slowly varying, the net deformed by it), obstacle size (``standard``: the cage's 0.3-2 m
+obstacles; ``small``: circles of 0.15-0.3 m radius, between the study's 5 deg beams beyond ~2-3 m),
+goal placement (``any``, or ``near_net``: 2.5 m from the net wall) and the number of fish schools
+that flee the vehicle and close in again. Scenario names (usable wherever a scenario spec is, e.g. ``train
 --scenario`` and ``evaluate --scenario``):
 
   sea:current=0.25,obstacles=small,goal=near_net,schools=3   one cell (keys optional; ``;`` also separates)
@@ -19,17 +21,15 @@ A matrix (``evaluate --matrix NAME``) is a list of cells; ``MATRICES`` holds the
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
-from cage_sim.scenarios import CageParams, Sampler, Scenario, generate_cage
-from cage_sim.world import Obstacle, World
+from cage_sim.scenarios import Sampler, Scenario
 
 OBSTACLES = ("standard", "small")
 GOALS = ("any", "near_net")
-NEAR_NET = 2.5          # m from the net wall: the issue's "goal near the net"
-SMALL = (0.15, 0.3)     # m radius of small obstacles
+NEAR_NET = 2.5          # m from the net wall the sonar sees: the issue's "goal near the net" (cage_sim)
 
 
 @dataclass(frozen=True)
@@ -78,53 +78,37 @@ def parse_condition(spec: str) -> Condition:
     return Condition(**kw)
 
 
-def _small_obstacles(rng: np.random.Generator, world: World) -> World:
-    """The same layout with every unknown static obstacle replaced by a 0.15-0.3 m circle."""
-    unknown = tuple(o if o.moving else Obstacle("circle", o.x, o.y, float(rng.uniform(*SMALL)))
-                    for o in world.unknown)
-    return replace(world, unknown=unknown)
+@lru_cache(maxsize=None)
+def _generator(family: str) -> Sampler:
+    from cage_sim.scenarios import make_generator
+    return make_generator(family)
 
 
-def _goal_near_net(rng: np.random.Generator, sc: Scenario, min_route: float = 15.0) -> Scenario | None:
-    """Move the goal to NEAR_NET m from the net wall, clear of obstacles; None if no place is found."""
-    w = sc.world
-    r = w.net_radius - NEAR_NET
-    for _ in range(200):
-        a = rng.uniform(-math.pi, math.pi)
-        g = (r * math.cos(a), r * math.sin(a))
-        if math.dist(g, sc.start[:2]) >= min_route and w.clearance(*g) >= 2.0:
-            return replace(sc, goal=g, waypoints=None)
-    return None
+def family(c: Condition, current: str | None = None) -> str:
+    """The cage_sim scenario family of a cell (``make_generator``: the same generator the simulator's
+    own tests and the graph use): fleeing fish schools, a current field (``current`` m/s inside the
+    pen, slowly varying by 20 %) that deforms the net, small obstacles, goal 2.5 m from the wall."""
+    return (f"cage?current={current or format(c.current, 'g')}&obstacles={'small' if c.obstacles == 'small' else 'default'}"
+            f"&goal={c.goal}&schools={c.schools}")
 
 
 def sea_scenario(rng: np.random.Generator, c: Condition) -> Scenario:
     """A full-cage mission (20 known squares, 10 unknown obstacles) under condition ``c``."""
-    for _ in range(100):
-        sc = generate_cage(rng, CageParams(n_moving=c.schools, current_speed=c.current), c.name)
-        if c.obstacles == "small":
-            sc = replace(sc, world=_small_obstacles(rng, sc.world))
-        if c.goal == "near_net":
-            sc = _goal_near_net(rng, sc)
-            if sc is None:
-                continue
-        return sc
-    raise RuntimeError(f"could not place a scenario for {c.name}")
+    return replace(_generator(family(c))(rng), name=c.name)
 
 
 def domain_randomised(rng: np.random.Generator) -> Scenario:
     """``sea_dr``: every mission draws its own condition (see the module docstring)."""
-    c = Condition(current=float(rng.uniform(0.0, 0.5)),
-                  obstacles="small" if rng.random() < 0.5 else "standard",
-                  goal="near_net" if rng.random() < 0.3 else "any",
-                  schools=int(rng.integers(0, 4)))
-    return sea_scenario(rng, c)
+    c = Condition(obstacles="small" if rng.random() < 0.5 else "standard",
+                  goal="near_net" if rng.random() < 0.3 else "any", schools=int(rng.integers(0, 4)))
+    return replace(_generator(family(c, "0-0.5"))(rng), name="sea_dr")
 
 
 def hard(rng: np.random.Generator) -> Scenario:
     """``sea_hard``: strong current, small obstacles, goal near the net or schools."""
-    c = Condition(current=float(rng.uniform(0.3, 0.5)), obstacles="small",
-                  goal="near_net" if rng.random() < 0.5 else "any", schools=int(rng.integers(0, 4)))
-    return sea_scenario(rng, c)
+    c = Condition(obstacles="small", goal="near_net" if rng.random() < 0.5 else "any",
+                  schools=int(rng.integers(0, 4)))
+    return replace(_generator(family(c, "0.3-0.5"))(rng), name="sea_hard")
 
 
 FAMILIES: dict[str, Sampler] = {"sea_dr": domain_randomised, "sea_hard": hard}
@@ -182,7 +166,7 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 
 
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
-               motion: str = "continuous", progress: bool = False) -> list[dict]:
+               env=None, progress: bool = False) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver).
 
     Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
@@ -190,6 +174,7 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     from cage_sim.mission import EnvConfig
 
     from .evaluate import run_missions, summarize
+    env = env or EnvConfig()
     from .missions import waypoint_fn
     routes = waypoint_fn(planner)
     rows = []
@@ -203,8 +188,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
         for dname, drv in drivers.items():
-            s = summarize(run_missions(drv, scs, EnvConfig(motion=motion), progress=progress))
-            rows.append({"cell": k, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
+            s = summarize(run_missions(drv, scs, env, progress=progress))
+            rows.append({"cell": k, "sensor": env.sonar.profile, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
                          "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"]})
             if progress:

@@ -23,7 +23,7 @@ from typing import Any
 from typing import TYPE_CHECKING
 
 import numpy as np
-from cage_sim.observation import ObservationLayout
+from cage_sim.observation import ObservationLayout, layout_from_dict
 from cage_sim.vehicle import VehicleParams
 
 from . import __version__
@@ -123,18 +123,29 @@ def shipped_path() -> Path:
 def profile_of(meta: dict) -> str:
     """The sensor profile recorded in a policy's metadata (``study`` for files from before profiles)."""
     lay = meta.get("observation_layout") or {}
-    return str(meta.get("sensor_profile") or lay.get("profile") or "study")
+    cfg = meta.get("config") or {}
+    return str(meta.get("sensor_profile") or lay.get("profile") or cfg.get("sensor") or "study")
+
+
+def env_config_for(meta: dict, motion: str | None = None):
+    """The ``EnvConfig`` a policy was trained with (sensor, observation options, motion): the
+    evaluator must build the same observations. Files from before profiles: the study's v1."""
+    from cage_sim.mission import EnvConfig
+    cfg = meta.get("config") or {}
+    return EnvConfig(motion=motion or cfg.get("motion") or "continuous", sonar=cfg.get("sensor", "study"),
+                     observation=cfg.get("observation", "auto"), velocity=bool(cfg.get("velocity", False)),
+                     memory_bins=int(cfg.get("memory_bins", 0)))
 
 
 def load_policy(path: str | Path | None = None, layout: ObservationLayout | None = None,
                 vehicle: VehicleParams | None = None, profile: str | None = None) -> LoadedPolicy:
     """Load a policy (default: the shipped one) and check it against this build's layout and vehicle.
 
-    ``layout``: the observation layout the caller will build (default: this build's default);
-    ``profile``: the sensor profile the caller runs; a policy trained for another is refused, naming both.
+    ``layout``: the observation layout the caller will build (default: the one the file records, v1
+    or v2); ``profile``: the sensor profile the caller runs; a policy trained for another is refused,
+    naming both.
     """
     wpath, mpath = paths(path if path is not None else shipped_path())
-    layout = layout or ObservationLayout()
     vehicle = vehicle or VehicleParams()
     for p, what in ((wpath, "weights"), (mpath, "metadata")):
         if not p.is_file():
@@ -150,8 +161,10 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
         raise PolicyLoadError(f"policy {wpath} was trained for sensor profile {profile_of(meta)!r}, "
                               f"this sonar is profile {profile!r}")
     try:
+        if layout is None:
+            layout = layout_from_dict(meta.get("observation_layout") or {})
         layout.check_compatible(meta.get("observation_layout") or {})
-    except ValueError as err:
+    except (ValueError, TypeError, KeyError) as err:
         raise PolicyLoadError(f"policy {wpath} does not fit this build: {err}") from None
     file_turn = meta.get("action", {}).get("max_turn_deg")
     if file_turn is None or not math.isclose(file_turn, math.degrees(vehicle.max_turn), rel_tol=1e-6):
@@ -160,6 +173,9 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
     net = meta.get("network", {})
     if net.get("obs_dim") != layout.size:
         raise PolicyLoadError(f"policy {wpath}: network obs_dim is {net.get('obs_dim')!r}, the layout has {layout.size}")
+    if (net.get("activation", "relu"), net.get("output", "tanh")) != ("relu", "tanh"):   # what NumpyActor runs
+        raise PolicyLoadError(f"policy metadata {mpath}: network activation {net.get('activation')!r}, output "
+                              f"{net.get('output')!r}: this build runs relu hidden layers and a tanh output")
     try:
         state = read_state(wpath)
     except (OSError, ValueError) as err:

@@ -24,7 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from .observation import ObservationLayout
-from .perception import Perception
+from .perception import Perception, body_drift
 from .vehicle import VehicleParams, decision_step
 
 
@@ -77,15 +77,23 @@ class ArcController:
 
     def returns(self, obs: np.ndarray, reach: float | None = None) -> np.ndarray:
         """Sonar returns within ``reach`` m (default: what the rollouts can come near), as body-frame
-        points (K, 2): the obstacle points the manoeuvres are checked against."""
-        ranges = self.layout.ranges_from(obs)
+        points (K, 2): the obstacle points the manoeuvres are checked against. With a v2 layout that
+        has a memory, the remembered returns (360 deg, e.g. beside and behind a forward-looking sonar)
+        count too."""
+        ranges, ang = self.layout.ranges_from(obs), self._beams
+        bins = int(getattr(self.layout, "memory_bins", 0) or 0)
+        if bins and getattr(self.layout, "scan", True):
+            ranges = np.concatenate([ranges, self.layout.memory_from(obs)])
+            ang = np.concatenate([ang, np.arange(bins) * (2 * math.pi / bins)])
         seen = ranges < min(self.layout.max_range * 0.999, reach or self._reach)
-        ang = self._beams[seen]
-        return np.stack([ranges[seen] * np.cos(ang), ranges[seen] * np.sin(ang)], axis=1)
+        return np.stack([ranges[seen] * np.cos(ang[seen]), ranges[seen] * np.sin(ang[seen])], axis=1)
 
     def perceive(self, obs: np.ndarray) -> Perception:
-        """What an observation alone says: its returns as static points, no drift."""
-        return Perception(self.returns(obs))
+        """What an observation alone says: its returns as static points, and the drift when the
+        layout carries the velocity over ground (v2 with ``velocity``)."""
+        v = self.layout.velocity_from(obs) if hasattr(self.layout, "velocity_from") else None
+        drift = body_drift(v, self.vehicle.speed) if v is not None else np.zeros(2)
+        return Perception(self.returns(obs), drift=drift)
 
     def act_one(self, obs: np.ndarray) -> float:
         dist, err = self.layout.waypoint_from(obs)
