@@ -16,7 +16,25 @@ OUTCOME_COLOURS = {"goal": "tab:green", "collision": "tab:red", "wander": "tab:o
 
 
 def draw_world(ax, world: World, t: float = 0.0) -> None:
-    ax.add_patch(plt.Circle((0, 0), world.net_radius, fill=False, lw=2, color="navy", label="net"))
+    """Net (the nominal circle dashed when the current deforms it: the map's net vs the real one),
+    obstacles, fish schools where they are in this snapshot, and the current's mean vector."""
+    if world.net.deformed:
+        ax.add_patch(plt.Circle((0, 0), world.net_radius, fill=False, lw=1, ls="--", color="navy",
+                                label="net on the map"))
+        ax.add_patch(plt.Polygon(world.net.polygon, closed=True, fill=False, lw=2, color="navy",
+                                 label=f"net ({world.net.loss:.0%} area lost)"))
+    else:
+        ax.add_patch(plt.Circle((0, 0), world.net_radius, fill=False, lw=2, color="navy", label="net"))
+    for i, (cx, cy, r) in enumerate(world.fish_circles):
+        ax.add_patch(plt.Circle((cx, cy), r, color="tab:cyan", alpha=0.6, label="fish school" if i == 0 else None))
+    if any(world.current):
+        s = 20.0 / max(world.current_field.max_speed, 1e-9)   # the arrow's length is not to scale
+        ax.annotate("", xy=(-world.net_radius * 0.8 + world.current[0] * s * 0.3,
+                            world.net_radius * 0.9 + world.current[1] * s * 0.3),
+                    xytext=(-world.net_radius * 0.8, world.net_radius * 0.9),
+                    arrowprops={"arrowstyle": "->", "color": "tab:blue"})
+        ax.text(-world.net_radius * 0.8, world.net_radius * 0.97, f"current {math.hypot(*world.current):.2f} m/s",
+                fontsize=7, color="tab:blue")
     for group, colour, label in ((world.known, "dimgray", "known obstacle"),
                                  (world.unknown, "tab:brown", "unknown obstacle")):
         for i, ob in enumerate(group):
@@ -64,7 +82,7 @@ def plot_episode(path: str, world: World, track, outcome: str | None, start, goa
 def render_rgb(mission) -> np.ndarray:
     """The env's ``rgb_array`` frame."""
     fig, ax = plt.subplots(figsize=(5, 5), dpi=80)
-    draw_world(ax, mission.world, mission.t)
+    draw_world(ax, mission.scene, mission.t)
     draw_track(ax, mission.track, mission.outcome)
     x, y, yaw = mission.pose
     ax.arrow(x, y, 1.5 * math.cos(yaw), 1.5 * math.sin(yaw), width=0.3, color="k")
