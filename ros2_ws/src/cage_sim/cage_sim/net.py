@@ -76,6 +76,15 @@ class NetShape:
         """Wall radius (m) at map angle(s) ``theta`` (static in time: the uniform flow sets it)."""
         return self.radius * (1.0 - self.push * 0.5 * (1.0 + np.cos(np.asarray(theta) - self.upstream)))
 
+    def inward(self, theta: float, distance: float) -> tuple[float, float]:
+        """The point ``distance`` m inside the wall along its inward normal at map angle ``theta`` (a
+        goal "2.5 m from the net" is 2.5 m from the nearest wall point, not 2.5 m along the radius)."""
+        r = float(self.r(theta))
+        dr = self.radius * self.push * 0.5 * math.sin(theta - self.upstream)
+        tx, ty = dr * math.cos(theta) - r * math.sin(theta), dr * math.sin(theta) + r * math.cos(theta)
+        n = math.hypot(tx, ty)
+        return r * math.cos(theta) - distance * ty / n, r * math.sin(theta) + distance * tx / n
+
     @property
     def min_radius(self) -> float:
         return self.radius * (1.0 - self.push)

@@ -354,12 +354,10 @@ def generate_cage(rng: np.random.Generator, p: CageParams = CageParams(), name: 
         world = World(p.net_radius, tuple(known), tuple(unknown), current, p.safety_radius, **extra)
         if world.net.deformed:
             if p.goal_wall is not None:   # near the wall the sonar sees, not the nominal one
-                a = math.atan2(goal[1], goal[0])
-                rr = float(world.net.r(a)) - p.goal_wall
-                goal = (rr * math.cos(a), rr * math.sin(a))
-                if world.clearance(*goal) < min(keep_clear, p.goal_wall) - 0.1 or math.dist(start, goal) < p.min_route:
+                goal = world.net.inward(math.atan2(goal[1], goal[0]), p.goal_wall)
+                if world.clearance(*goal) < min(keep_clear, p.goal_wall) - 0.02 or math.dist(start, goal) < p.min_route:
                     continue
-            if world.net.clearance(*start) < keep_clear or world.net.clearance(*goal) < min(keep_clear, p.goal_wall or keep_clear) - 0.1:
+            if world.net.clearance(*start) < keep_clear or world.net.clearance(*goal) < min(keep_clear, p.goal_wall or keep_clear) - 0.02:
                 continue   # the pushed-in wall took the start or the goal: draw again
         return Scenario(name, world, (start[0], start[1], math.atan2(math.sin(heading), math.cos(heading))), goal,
                         sensor=p.sensor)
