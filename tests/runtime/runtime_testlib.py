@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import itertools
 import os
-import select
 import subprocess
+import threading
 import time
 from pathlib import Path
 from typing import Callable
@@ -29,40 +29,59 @@ def wait_until(predicate: Callable[[], bool], timeout: float, step: float = 0.02
 
 
 class NodeProcess:
-    """A node script (or command) in its own process, with line-wise stdout reading."""
+    """A node script (or command) in its own process, with line-wise stdout reading.
+
+    A reader thread collects the output: select() on the pipe cannot see lines that the text wrapper has
+    already buffered, so several lines arriving at once would otherwise stay unread.
+    """
 
     def __init__(self, argv: list[str], env: dict[str, str]) -> None:
         self.proc = subprocess.Popen(argv, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                      text=True, bufsize=1)
         self.lines: list[str] = []
+        self._changed = threading.Condition()
+        self._eof = False
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        stream = self.proc.stdout
+        try:
+            for line in iter(stream.readline, ''):
+                with self._changed:
+                    self.lines.append(line)
+                    self._changed.notify_all()
+        except (ValueError, OSError):
+            pass
+        with self._changed:
+            self._eof = True
+            self._changed.notify_all()
 
     def read_until(self, text: str, timeout: float = 10.0) -> bool:
         deadline = time.monotonic() + timeout
-        while not any(text in line for line in self.lines):
-            remaining = deadline - time.monotonic()
-            if remaining <= 0 or self.proc.stdout is None:
-                return False
-            ready, _, _ = select.select([self.proc.stdout], [], [], remaining)
-            if ready:
-                line = self.proc.stdout.readline()
-                if not line:
-                    return any(text in line for line in self.lines)
-                self.lines.append(line)
+        with self._changed:
+            while not any(text in line for line in self.lines):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or self._eof:
+                    return False
+                self._changed.wait(remaining)
         return True
 
     def finish(self, timeout: float = 10.0) -> int:
-        out, _ = self.proc.communicate(timeout=timeout)
-        self.lines.extend(out.splitlines(keepends=True))
+        self.proc.wait(timeout=timeout)
+        self._reader.join(timeout)
         return self.proc.returncode
 
     @property
     def output(self) -> str:
-        return ''.join(self.lines)
+        with self._changed:
+            return ''.join(self.lines)
 
     def kill(self) -> None:
         if self.proc.poll() is None:
             self.proc.kill()
-            self.proc.communicate()
+            self.proc.wait()
+        self._reader.join(5)
 
 
 def spin_until(executor: object, predicate: Callable[[], bool], timeout: float) -> bool:

@@ -37,11 +37,14 @@ class RosArguments:
     node_name: str | None = None
     namespace: str | None = None
     log_levels: list[tuple[str | None, str]] = field(default_factory=list)
+    #: False after `--disable-rosout-logs`.
+    rosout_enabled: bool = True
 
     def extend(self, other: 'RosArguments') -> 'RosArguments':
         return RosArguments(self.param_rules + other.param_rules, self.remaps + other.remaps,
                             other.node_name or self.node_name, other.namespace or self.namespace,
-                            self.log_levels + other.log_levels)
+                            self.log_levels + other.log_levels,
+                            self.rosout_enabled and other.rosout_enabled)
 
 
 def _split_rule(text: str, flag: str) -> tuple[str | None, str, str]:
@@ -115,6 +118,8 @@ def parse(args: list[str] | None) -> RosArguments:
                 out.log_levels.append((None, text))
         elif arg in _FLAGS_WITH_ARG_IGNORED:
             value_of(arg)
+        elif arg == '--disable-rosout-logs':
+            out.rosout_enabled = False
         elif arg in _IGNORED_FLAGS:
             pass
         else:
@@ -136,10 +141,20 @@ def load_params_file(path: str) -> list[tuple[str, dict[str, Any]]]:
     Node keys may be nested (`ns: node: ros__parameters:`) or written as one path (`/ns/node:`), and may
     use the `*`/`**` wildcards (`/**:`).
     """
-    with open(path, encoding='utf-8') as f:
-        doc = yaml.safe_load(f) or {}
+    try:
+        with open(path, encoding='utf-8') as f:
+            doc = yaml.safe_load(f) or {}
+    except FileNotFoundError:
+        raise RosArgumentError(f'--params-file {path!r}: no such file') from None
+    except OSError as exc:
+        raise RosArgumentError(f'--params-file {path!r}: cannot be read ({exc.strerror})') from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, 'problem_mark', None)
+        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark is not None else ''
+        problem = getattr(exc, 'problem', None) or 'not valid YAML'
+        raise RosArgumentError(f'--params-file {path!r}: {problem}{where}') from None
     if not isinstance(doc, dict):
-        raise RosArgumentError(f'params file {path!r} must hold a mapping')
+        raise RosArgumentError(f'--params-file {path!r}: must hold a mapping of node names')
     out: list[tuple[str, dict[str, Any]]] = []
 
     def walk(path_parts: list[str], node: dict) -> None:
@@ -151,7 +166,13 @@ def load_params_file(path: str) -> list[tuple[str, dict[str, Any]]]:
                 out.append((pattern, params))
             elif isinstance(value, dict):
                 walk(path_parts + [str(key)], value)
+            else:
+                where = '/'.join(path_parts + [str(key)])
+                raise RosArgumentError(f"--params-file {path!r}: '{where}' is not a node mapping with "
+                                       "'ros__parameters'")
     walk([], doc)
+    if doc and not out:
+        raise RosArgumentError(f"--params-file {path!r}: no 'ros__parameters' section")
     return out
 
 

@@ -29,9 +29,18 @@ def init(*, args: Optional[List[str]] = None, context: Optional[Context] = None,
     """Initialize a context (default: the global one) from `args` (default: sys.argv).
 
     Installs SIGINT/SIGTERM handlers (unless `signal_handler_options=SignalHandlerOptions.NO`).
+    Malformed ROS arguments (`-p` without `:=`, a missing or broken `--params-file`, an unknown flag)
+    end the process with one line naming the argument and exit status 2.
     """
     ctx = get_default_context() if context is None else context
-    ctx.init(args, domain_id=domain_id)
+    from cage_ros_runtime.arguments import RosArgumentError
+    try:
+        ctx.init(args, domain_id=domain_id)
+    except RosArgumentError as exc:
+        # real rclpy raises RCLError with a traceback; here a malformed command line is one line, exit 2
+        import sys
+        print(f'error: {exc}', file=sys.stderr, flush=True)
+        raise SystemExit(2) from None
     register_context(ctx)
     install_signal_handlers(SignalHandlerOptions.ALL if signal_handler_options is None
                             else signal_handler_options)

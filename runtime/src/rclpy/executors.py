@@ -156,6 +156,11 @@ class Executor:
         next_deadline = -1
         for node in self._nodes:
             for timer in list(node._timers):  # noqa: SLF001
+                sim_due = timer._sim_due()  # noqa: SLF001
+                if sim_due is not None:  # a sim-time timer: woken by /clock, not by the steady clock
+                    if sim_due:
+                        self._ready.append(timer._fire)  # noqa: SLF001
+                    continue
                 deadline = timer._next_deadline()  # noqa: SLF001
                 if deadline is None:
                     continue

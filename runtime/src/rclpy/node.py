@@ -92,6 +92,12 @@ class Node:
 
         self._domain = self._context._get_domain()  # noqa: SLF001
         self._context._track_node(self)  # noqa: SLF001
+        self._parameter_event_publisher: Optional[Publisher] = None
+        self._rosout_publisher: Optional[Publisher] = None
+        self._rosout_sink: Any = None
+        self._parameter_service: Any = None
+        self._start_ros_interfaces(enable_rosout and self._ros_args.rosout_enabled,
+                                   start_parameter_services)
 
         if automatically_declare_parameters_from_overrides:
             for name, p in self._parameter_overrides.items():
@@ -103,6 +109,53 @@ class Node:
         if self.get_parameter('use_sim_time').value:
             self._enable_sim_time()
         self._context._graph_changed()  # noqa: SLF001
+
+    def _start_ros_interfaces(self, enable_rosout: bool, start_parameter_services: bool) -> None:
+        """What every rclpy node has: /parameter_events, /rosout and the parameter services."""
+        from rcl_interfaces.msg import ParameterEvent
+        from rclpy.qos import qos_profile_parameter_events
+        self._parameter_event_publisher = self.create_publisher(
+            ParameterEvent, '/parameter_events', qos_profile_parameter_events)
+        if enable_rosout:
+            self._enable_rosout()
+        if start_parameter_services:
+            from rclpy.parameter_service import ParameterService
+            self._parameter_service = ParameterService(self)
+
+    def _enable_rosout(self) -> None:
+        """Publish this node's log lines (its logger and child loggers) on /rosout, as rcl does."""
+        from rcl_interfaces.msg import Log
+        from rclpy.impl import rcutils_logger
+        from rclpy.qos import qos_profile_rosout_default
+        pub = self.create_publisher(Log, '/rosout', qos_profile_rosout_default)
+        self._rosout_publisher = pub
+        own = self._logger.name
+
+        def sink(name: str, level: int, message: str, caller: Any, now_ns: int) -> None:
+            if name != own and not name.startswith(own + '.'):
+                return
+            if self._destroyed or pub._writer is None:  # noqa: SLF001
+                return
+            from builtin_interfaces.msg import Time as TimeMsg
+            pub.publish(Log(stamp=TimeMsg(sec=now_ns // 1_000_000_000, nanosec=now_ns % 1_000_000_000),
+                            level=int(level), name=name, msg=message,
+                            file=caller.filename if caller else '',
+                            function=caller.function if caller else '',
+                            line=caller.lineno if caller else 0))
+
+        self._rosout_sink = sink
+        rcutils_logger.add_sink(sink)
+
+    def _publish_parameter_event(self, new: List[Parameter] = (), changed: List[Parameter] = (),
+                                 deleted: List[Parameter] = ()) -> None:
+        pub = self._parameter_event_publisher
+        if pub is None or pub._writer is None:  # noqa: SLF001
+            return
+        from rclpy.parameter_service import parameter_event
+        try:
+            pub.publish(parameter_event(self, list(new), list(changed), list(deleted)))
+        except Exception as exc:  # noqa: BLE001 - an event that cannot be encoded must not fail the set
+            self._logger.debug(f'parameter event not published: {exc}')
 
     # ------------------------------------------------------------------ identity
     def _logger_name(self) -> str:
@@ -240,7 +293,8 @@ class Node:
     def create_timer(self, timer_period_sec: float, callback: Optional[Callable[[], Any]],
                      callback_group: Any = None, clock: Any = None, autostart: bool = True) -> Timer:
         self._check_alive()
-        timer = Timer(callback, int(float(timer_period_sec) * 1e9), autostart=autostart)
+        timer = Timer(callback, int(float(timer_period_sec) * 1e9), autostart=autostart,
+                      clock=clock if clock is not None else self._clock)
         self._timers.append(timer)
         self._generation += 1
         self._wake_executor()
@@ -340,6 +394,10 @@ class Node:
                 executor.remove_node(self)
             except Exception:  # noqa: BLE001
                 pass
+        if self._rosout_sink is not None:
+            from rclpy.impl import rcutils_logger
+            rcutils_logger.remove_sink(self._rosout_sink)
+            self._rosout_sink = None
         for pub in list(self._publishers):
             self._publishers.remove(pub)
             pub._close()  # noqa: SLF001
@@ -422,6 +480,14 @@ class Node:
         self._clock_sub = self.create_subscription(
             ClockMsg, '/clock', on_clock, QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
 
+    def _disable_sim_time(self) -> None:
+        """Back to system time (use_sim_time set to false)."""
+        if self._clock_sub is None:
+            return
+        self.destroy_subscription(self._clock_sub)
+        self._clock_sub = None
+        self._clock._set_ros_time_is_active(False)  # noqa: SLF001
+
     # ------------------------------------------------------------------ parameters
     def declare_parameter(self, name: str, value: Any = None, descriptor: Any = None,
                           ignore_override: bool = False) -> Parameter:
@@ -474,6 +540,7 @@ class Node:
             self._descriptors[param.name] = descriptor
             declared.append(param)
         self._run_post_set([p for p, _ in staged])
+        self._publish_parameter_event(new=[p for p, _ in staged])
         return declared
 
     @staticmethod
@@ -490,8 +557,9 @@ class Node:
             raise ParameterNotDeclaredException(name)
         if self._descriptors[name].read_only:
             raise ParameterImmutableException(name)
-        del self._parameters[name]
+        param = self._parameters.pop(name)
         del self._descriptors[name]
+        self._publish_parameter_event(deleted=[param])
 
     def has_parameter(self, name: str) -> bool:
         return name in self._parameters
@@ -554,6 +622,14 @@ class Node:
         result = self._run_on_set(parameter_list)
         if not result.successful:
             return result
+        new, changed, deleted = [], [], []
+        for p in parameter_list:
+            if p.name not in self._parameters:
+                new.append(p)
+            elif p.type_ == Parameter.Type.NOT_SET and self._allow_undeclared_parameters:
+                deleted.append(p)
+            else:
+                changed.append(p)
         for p in parameter_list:
             if p.type_ == Parameter.Type.NOT_SET and p.name in self._parameters \
                     and self._allow_undeclared_parameters:
@@ -564,9 +640,13 @@ class Node:
             if p.name not in self._descriptors:
                 self._descriptors[p.name] = _default_descriptor(p.name)
         self._run_post_set(parameter_list)
+        self._publish_parameter_event(new, changed, deleted)
         for p in parameter_list:
-            if p.name == 'use_sim_time' and p.value:
-                self._enable_sim_time()
+            if p.name == 'use_sim_time':
+                if p.value:
+                    self._enable_sim_time()
+                else:
+                    self._disable_sim_time()
         return result
 
     def _run_on_set(self, params: List[Parameter]) -> Any:

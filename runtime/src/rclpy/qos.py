@@ -187,8 +187,10 @@ qos_profile_sensor_data = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
 qos_profile_services_default = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10)
 qos_profile_parameters = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000)
 qos_profile_parameter_events = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000)
+#: rcl's rosout profile (Jazzy): KEEP_LAST 1000, RELIABLE, TRANSIENT_LOCAL, lifespan 10 s.
 qos_profile_rosout_default = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
-                                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+                                        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                                        lifespan=Duration(seconds=10))
 qos_profile_action_status_default = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                                                durability=DurabilityPolicy.TRANSIENT_LOCAL)
 qos_profile_best_available = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,

@@ -25,6 +25,20 @@ _lock = threading.Lock()
 _once_seen: set[tuple[str, str, int]] = set()
 _throttle_last: dict[tuple[str, str, int], float] = {}
 _skip_first_seen: set[tuple[str, str, int]] = set()
+#: Extra destinations of every emitted line (nodes' /rosout publishers): sink(name, level, msg, caller).
+_sinks: list = []
+_in_sink = threading.local()
+
+
+def add_sink(sink: Any) -> None:
+    with _lock:
+        _sinks.append(sink)
+
+
+def remove_sink(sink: Any) -> None:
+    with _lock:
+        if sink in _sinks:
+            _sinks.remove(sink)
 
 
 def set_default_level(level: int) -> None:
@@ -72,6 +86,16 @@ def emit(name: str, level: int, message: str, caller: inspect.FrameInfo | None) 
         stream.flush()
     except (ValueError, OSError):  # stream closed at interpreter exit
         pass
+    if _sinks and not getattr(_in_sink, 'active', False):
+        _in_sink.active = True  # a sink that logs must not recurse
+        try:
+            for sink in list(_sinks):
+                try:
+                    sink(name, level, message, caller, now)
+                except Exception:  # noqa: BLE001 - logging never raises into node code
+                    pass
+        finally:
+            _in_sink.active = False
 
 
 class RcutilsLogger:
