@@ -23,6 +23,11 @@ class TrainConfig:
     motion: str = "study"                # "study" (the study's step) or "continuous" (the vehicle node)
     reward: dict = field(default_factory=dict)   # RewardConfig overrides, e.g. {"progress_weight": 1}
     planner: str = "none"                # training routes: none (straight), rrt, dense, dense_mix
+    # --- sensor and observation (cage_sim.mission.EnvConfig; recorded in the policy's metadata) ---
+    sensor: str = "study"                # sonar profile: study, multibeam360, fls, scanning
+    observation: str = "auto"            # v1 (the study's layout), v2, auto (v1 for plain study)
+    velocity: bool = False               # v2: velocity over ground (DVL) in the observation
+    memory_bins: int = 0                 # v2: egocentric memory of recent returns (0 = none)
     # --- budget -------------------------------------------------------------------------
     seed: int = 0
     total_steps: int = 0                 # env steps (all envs together); 0 = use episodes
@@ -63,7 +68,8 @@ class TrainConfig:
 
     # ------------------------------------------------------------------------------------
     def env_config(self) -> EnvConfig:
-        return EnvConfig(reward=RewardConfig(**self.reward), motion=self.motion)
+        return EnvConfig(reward=RewardConfig(**self.reward), motion=self.motion, sonar=self.sensor,
+                         observation=self.observation, velocity=self.velocity, memory_bins=self.memory_bins)
 
     def validate(self) -> "TrainConfig":
         bad = set(self.reward) - {f.name for f in fields(RewardConfig)}

@@ -212,7 +212,8 @@ class Trainer:
                              "torch_threads": c.threads, "command": self.command}}
         if c.scenario == STUDY1D:
             meta["observation_layout"] = {"name": STUDY1D, "size": 1}
-        save_policy(self.out / f"{name}.safetensors", self.agent.actor, meta)
+        save_policy(self.out / f"{name}.safetensors", self.agent.actor, meta,
+                    None if c.scenario == STUDY1D else self.env_cfg.layout)
 
     def save_checkpoint(self) -> None:
         state = {"agent": self.agent.state_dict(), "config": self.cfg.to_dict(),
