@@ -15,7 +15,7 @@ def test_a_cell_draws_its_conditions():
     for sc in episode_scenarios(c.name, 5, seed=1):
         w = sc.world
         assert np.isclose(np.hypot(*w.current), 0.5)              # the uniform part; 20 % varies on top
-        assert abs(w.net.clearance(*sc.goal) - NEAR_NET) < 0.05      # from the wall the sonar sees
+        assert abs(w.net.clearance(*sc.goal) - NEAR_NET) < 0.1       # from the wall the sonar sees
         assert w.unknown and all(0.15 <= (o.size if o.shape == "circle" else o.size / 2) <= 0.3 for o in w.unknown)
         assert len(w.schools) == 2
 
