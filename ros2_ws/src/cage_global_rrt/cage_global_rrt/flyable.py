@@ -23,68 +23,68 @@ from .geometry import segment_valid
 from .known_map import KnownMap
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / math.hypot(v[0], v[1])
+Point = tuple[float, float]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> float:
-    return float(a[0] * b[1] - a[1] * b[0])
+def _turn(a: Point, b: Point, c: Point) -> tuple[float, float]:
+    """(turn angle in [0, pi], signed cross product) of the corner a-b-c."""
+    ux, uy = b[0] - a[0], b[1] - a[1]
+    wx, wy = c[0] - b[0], c[1] - b[1]
+    cross = ux * wy - uy * wx
+    return abs(math.atan2(cross, ux * wx + uy * wy)), cross
 
 
-def merge_corners(points: np.ndarray, radius: float, max_turn: float = math.radians(170.0)) -> np.ndarray | None:
+def _tangent_length(a: Point, b: Point, c: Point, radius: float) -> float:
+    return radius * math.tan(0.5 * _turn(a, b, c)[0])
+
+
+def merge_corners(points, radius: float, max_turn: float = math.radians(170.0)) -> np.ndarray | None:
     """Corners so that every fillet of ``radius`` fits on its legs, or None where that needs merging
     an S-bend or a turn sharper than ``max_turn`` (no corner point exists)."""
-    pts = [np.asarray(p, dtype=float) for p in _dedup(points)]
-    changed = True
-    while changed and len(pts) > 2:
-        changed = False
-        t = [0.0] + [_tangent_length(pts[i - 1], pts[i], pts[i + 1], radius) for i in range(1, len(pts) - 1)] + [0.0]
-        for i in range(len(pts) - 1):
-            leg = math.dist(pts[i], pts[i + 1])
-            if t[i] + t[i + 1] <= leg + 1e-12:
-                continue
-            if i == 0 or i + 1 == len(pts) - 1:
-                return None  # the first or last leg is too short for its fillet
-            # merge corners i and i+1 into the intersection of legs (i-1, i) and (i+1, i+2)
-            a, b = pts[i - 1], pts[i]
-            c, d = pts[i + 1], pts[i + 2]
-            u, w = _unit(b - a), _unit(d - c)
-            turn1, turn2 = _cross(b - a, c - b), _cross(c - b, d - c)
-            den = _cross(u, w)
-            if turn1 * turn2 < 0 or abs(den) < 1e-12 or math.acos(max(-1.0, min(1.0, float(u @ w)))) > max_turn:
-                return None
-            s = _cross(c - a, w) / den
-            if s <= 0:
-                return None
-            pts[i:i + 2] = [a + s * u]
-            changed = True
-            break
+    pts: list[Point] = [(float(p[0]), float(p[1])) for p in _dedup(points)]
+    t = [0.0] + [_tangent_length(pts[i - 1], pts[i], pts[i + 1], radius) for i in range(1, len(pts) - 1)] + [0.0]
+    i = 0
+    while i < len(pts) - 1:
+        if t[i] + t[i + 1] <= math.dist(pts[i], pts[i + 1]) + 1e-12:
+            i += 1
+            continue
+        if i == 0 or i + 1 == len(pts) - 1:
+            return None  # the first or last leg is too short for its fillet
+        # merge corners i and i+1 into the intersection of legs (i-1, i) and (i+1, i+2)
+        a, b, c, d = pts[i - 1], pts[i], pts[i + 1], pts[i + 2]
+        (_, c1), (_, c2) = _turn(a, b, c), _turn(b, c, d)
+        ux, uy = b[0] - a[0], b[1] - a[1]
+        wx, wy = d[0] - c[0], d[1] - c[1]
+        lu, lw = math.hypot(ux, uy), math.hypot(wx, wy)
+        ux, uy, wx, wy = ux / lu, uy / lu, wx / lw, wy / lw
+        den = ux * wy - uy * wx
+        if c1 * c2 < 0 or abs(den) < 1e-12 or abs(math.atan2(den, ux * wx + uy * wy)) > max_turn:
+            return None
+        s = ((c[0] - a[0]) * wy - (c[1] - a[1]) * wx) / den
+        if s <= 0:
+            return None
+        pts[i:i + 2] = [(a[0] + s * ux, a[1] + s * uy)]
+        t[i:i + 2] = [_tangent_length(pts[i - 1], pts[i], pts[i + 1], radius)]
+        i = max(0, i - 2)   # the merged corner's longer tangent may now overlap the previous one
     return np.asarray(pts)
 
 
-def _tangent_length(a, b, c, radius) -> float:
-    u, w = _unit(b - a), _unit(c - b)
-    theta = math.acos(max(-1.0, min(1.0, float(u @ w))))
-    return radius * math.tan(0.5 * theta)
-
-
-def _dedup(points: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+def _dedup(points, tol: float = 1e-9) -> np.ndarray:
+    """Drop repeated points and interior points with no turn."""
     pts = np.asarray(points, dtype=float)[:, :2]
-    keep = [0]
-    for i in range(1, len(pts)):
-        if math.dist(pts[i], pts[keep[-1]]) > tol:
-            keep.append(i)
-    out = pts[keep]
-    # drop collinear interior points (zero turn)
+    out: list[Point] = [(float(pts[0, 0]), float(pts[0, 1]))]
+    for x, y in pts[1:].tolist():
+        if math.dist((x, y), out[-1]) > tol:
+            out.append((x, y))
     if len(out) > 2:
-        k = [0]
+        k = [out[0]]
         for i in range(1, len(out) - 1):
-            if abs(_cross(out[i] - out[k[-1]], out[i + 1] - out[i])) > 1e-12 * math.dist(out[i], out[k[-1]]) \
-                    * math.dist(out[i + 1], out[i]) or float((out[i] - out[k[-1]]) @ (out[i + 1] - out[i])) < 0:
-                k.append(i)
-        k.append(len(out) - 1)
-        out = out[k]
-    return out
+            angle, _ = _turn(k[-1], out[i], out[i + 1])
+            if angle > 1e-12:
+                k.append(out[i])
+        k.append(out[-1])
+        out = k
+    return np.asarray(out)
 
 
 def fillet(points: np.ndarray, kmap: KnownMap, clearance: float, radius: float,
@@ -95,32 +95,35 @@ def fillet(points: np.ndarray, kmap: KnownMap, clearance: float, radius: float,
     corners = merge_corners(points, radius)
     if corners is None:
         return None
-    args = (kmap.net_radius, clearance, kmap.squares, kmap.circles)
-    out = [corners[0]]
+    R, sq, ci = kmap.net_radius, kmap.squares, kmap.circles
+    c = corners.tolist()
+    out: list[list[float]] = [c[0]]
     arcs: list[tuple[float, float, float]] = []
-    for i in range(1, len(corners) - 1):
-        a, b, c = corners[i - 1], corners[i], corners[i + 1]
-        u, w = _unit(b - a), _unit(c - b)
-        theta = math.acos(max(-1.0, min(1.0, float(u @ w))))
+    for i in range(1, len(c) - 1):
+        a, b, d = c[i - 1], c[i], c[i + 1]
+        theta, cross = _turn(a, b, d)
+        lu, lw = math.dist(a, b), math.dist(b, d)
+        ux, uy = (b[0] - a[0]) / lu, (b[1] - a[1]) / lu
+        wx, wy = (d[0] - b[0]) / lw, (d[1] - b[1]) / lw
         t = radius * math.tan(0.5 * theta)
-        p, q = b - t * u, b + t * w
-        side = 1.0 if _cross(u, w) > 0 else -1.0          # left turn: centre on the left
-        centre = p + side * radius * np.array([-u[1], u[0]])
-        a0 = math.atan2(p[1] - centre[1], p[0] - centre[0])
+        p = [b[0] - t * ux, b[1] - t * uy]
+        q = [b[0] + t * wx, b[1] + t * wy]
+        side = 1.0 if cross > 0 else -1.0          # left turn: centre on the left
+        cx, cy = p[0] - side * radius * uy, p[1] + side * radius * ux
+        a0 = math.atan2(p[1] - cy, p[0] - cx)
         n = max(1, int(math.ceil(radius * theta / spacing)))
         sag = (radius * theta / n) ** 2 / (8.0 * radius)
-        chord = [centre + radius * np.array([math.cos(a0 + side * theta * k / n), math.sin(a0 + side * theta * k / n)])
-                 for k in range(n + 1)]
-        chord[0], chord[-1] = p, q
-        if not segment_valid(out[-1][0], out[-1][1], p[0], p[1], *args):
+        chord = [p] + [[cx + radius * math.cos(a0 + side * theta * k / n), cy + radius * math.sin(a0 + side * theta * k / n)]
+                       for k in range(1, n)] + [q]
+        if not segment_valid(out[-1][0], out[-1][1], p[0], p[1], R, clearance, sq, ci):
             return None
         for s0, s1 in zip(chord[:-1], chord[1:]):
-            if not segment_valid(s0[0], s0[1], s1[0], s1[1], args[0], clearance + sag, args[2], args[3]):
+            if not segment_valid(s0[0], s0[1], s1[0], s1[1], R, clearance + sag, sq, ci):
                 return None
         out.extend(chord)
-        arcs.append((float(centre[0]), float(centre[1]), radius))
-    end = corners[-1]
-    if not segment_valid(out[-1][0], out[-1][1], end[0], end[1], *args):
+        arcs.append((cx, cy, radius))
+    end = c[-1]
+    if not segment_valid(out[-1][0], out[-1][1], end[0], end[1], R, clearance, sq, ci):
         return None
     out.append(end)
     return _dedup_keep(np.asarray(out)), arcs

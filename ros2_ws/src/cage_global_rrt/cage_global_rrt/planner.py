@@ -86,7 +86,10 @@ class GlobalPlanner:
         margin = CageEnvironment.check_margin(self.options)
         if self.options.planner == "optimal":
             self.optimal.shortest_path((0.0, 0.0), (0.0, 0.0))
-        else:
+        if self.options.flyable:   # the wider graphs a flyable replan may need, built with the map
+            for extra in FLYABLE_EXTRA:
+                optimal_graph(k, self.options.clearance + extra)
+        if self.options.planner != "optimal":
             self.env  # noqa: B018 - builds it
         pts = np.zeros((2, 2))
         polyline_valid(pts, k.net_radius, margin, k.squares, k.circles)

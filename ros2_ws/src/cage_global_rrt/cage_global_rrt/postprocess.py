@@ -28,12 +28,12 @@ def resample(points: np.ndarray, spacing: float) -> np.ndarray:
     pts = np.asarray(points, dtype=float)[:, :2]
     if spacing <= 0 or len(pts) < 2:
         return pts.copy()
-    out = [pts[:1]]
-    for a, b in zip(pts[:-1], pts[1:]):
-        n = max(1, int(math.ceil(float(np.hypot(*(b - a))) / spacing - 1e-9)))
-        s = np.arange(1, n + 1)[:, None] / n
-        out.append(a + s * (b - a))
-    return np.vstack(out)
+    d = np.diff(pts, axis=0)
+    n = np.maximum(1, np.ceil(np.hypot(d[:, 0], d[:, 1]) / spacing - 1e-9).astype(np.int64))
+    seg = np.repeat(np.arange(len(d)), n)                       # segment of each new point
+    j = np.arange(1, n.sum() + 1) - np.repeat(np.cumsum(n) - n, n)   # 1..n within its segment
+    s = (j / n[seg])[:, None]
+    return np.vstack((pts[:1], pts[seg] + s * d[seg]))
 
 
 def drop_duplicates(points: np.ndarray, tol: float = 1e-9) -> np.ndarray:
