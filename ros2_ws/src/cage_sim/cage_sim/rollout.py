@@ -26,11 +26,11 @@ def run_episode(env: CageNavEnv, policy: Policy, seed: int | None = None,
     """One seeded episode; the same seed gives the same scenario and the same outcome."""
     obs, info = env.reset(seed=seed, options={"scenario": scenario} if scenario else None)
     m = env.mission
-    total, min_clear = 0.0, m.world.clearance(m.x, m.y)
+    total, min_clear = 0.0, m.scene.clearance(m.x, m.y)
     while True:
         obs, r, term, trunc, info = env.step(policy.act(obs))
         total += r
-        min_clear = min(min_clear, m.world.clearance(m.x, m.y, m.t))
+        min_clear = min(min_clear, m.scene.clearance(m.x, m.y, m.t))   # fish where they are now
         if term or trunc:
             break
     return Episode(m.scenario, info["outcome"], info["steps"], total, info["travelled"],
