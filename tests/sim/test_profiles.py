@@ -93,3 +93,22 @@ def test_unknown_profile_is_refused_naming_the_choices():
     with pytest.raises(SonarConfigError, match="sonar.profile: must be one of"):
         make_sonar("lidar")
     assert set(PROFILE_NAMES) == {"study", "multibeam360", "fls", "scanning"}
+
+
+def test_a_sweep_goes_out_as_a_laserscan_from_its_oldest_beam_and_comes_back():
+    from cage_sim.sonar import laserscan_fields, scan_from_laserscan
+    s = make_sonar("scanning", noise_std=0.0, dropout=0.0)
+    w = World(12.0, (), (Obstacle("circle", 0.0, 6.0, 1.0),))
+    head = s.head()
+    head.reset(w, 0.0, 0.0, 0.0, 0.0)
+    scan = head.update(w, 0.5, 0.0, 0.0, 1.0)
+    f = laserscan_fields(scan, s)
+    assert f["stamp"] == pytest.approx(scan.stamps.min()) and f["time_increment"] == pytest.approx(4.0 / 180)
+    times = f["stamp"] + np.arange(180) * f["time_increment"]
+    assert np.allclose(np.sort(times), np.sort(scan.stamps))          # every beam's age is exact
+    back = scan_from_laserscan(f["ranges"], f["angle_min"], f["angle_increment"], f["stamp"],
+                               f["time_increment"], s, (0.5, 0.0, 0.0), previous_stamp=0.0)
+    assert np.array_equal(back.ranges, scan.ranges) and np.allclose(back.stamps, scan.stamps)
+    assert np.array_equal(back.new, scan.new)
+    with pytest.raises(ValueError, match="scan has 72 ranges, the scanning profile has 180"):
+        scan_from_laserscan(np.ones(72), 0.0, f["angle_increment"], 0.0, 0.0, s, (0.0, 0.0, 0.0))

@@ -290,6 +290,51 @@ class Scan:
         return t - self.stamps
 
 
+def laserscan_fields(scan: Scan, sonar: SonarModel) -> dict:
+    """The ``sensor_msgs/LaserScan`` fields for a scan (REP 117; pure: sim_node fills the message).
+
+    A LaserScan's ``header.stamp`` is the first beam's time and beam i is ``i * time_increment`` later.
+    A mechanical head's latest sweep is therefore published starting at its OLDEST beam: ``angle_min``
+    is that beam's angle and the ranges run in firing order, so each beam's age is exact. An electronic
+    sonar's scan is published as is (``time_increment`` 0). ``scan_from_laserscan`` undoes it."""
+    n = sonar.n_beams
+    first = int(np.argmin(scan.stamps)) if sonar.mechanical else 0
+    order = (first + np.arange(n)) % n
+    a0 = sonar.angle_min + first * sonar.angle_increment
+    a0 = (a0 + math.pi) % (2 * math.pi) - math.pi if sonar.mechanical else a0
+    return {"stamp": float(scan.stamps[first]), "angle_min": a0,
+            "angle_max": a0 + (n - 1) * sonar.angle_increment, "angle_increment": sonar.angle_increment,
+            "time_increment": sonar.time_increment, "scan_time": sonar.sweep_time or 1.0 / sonar.rate,
+            "range_min": sonar.min_range, "range_max": sonar.max_range, "ranges": scan.ranges[order].copy()}
+
+
+def scan_from_laserscan(ranges, angle_min: float, angle_increment: float, stamp: float, time_increment: float,
+                        sonar: SonarModel, pose: tuple[float, float, float],
+                        previous_stamp: float = -math.inf) -> Scan:
+    """A received LaserScan back as a ``Scan`` in the profile's beam order (what ``ObservationBuilder``
+    and the layout expect). ``pose``: the vehicle's pose now (every beam's origin: the receiver does not
+    know where the vehicle was when an old beam fired). ``new``: beams later than ``previous_stamp``
+    (the latest beam time of the previous call). Raises ValueError (one line) when the scan is not
+    this profile's."""
+    r = np.asarray(ranges, dtype=np.float64)
+    n = sonar.n_beams
+    if r.shape != (n,):
+        raise ValueError(f"scan has {r.size} ranges, the {sonar.profile} profile has {n}")
+    if not math.isclose(angle_increment, sonar.angle_increment, rel_tol=1e-4):
+        raise ValueError(f"scan angle_increment {angle_increment:.6f} rad is not the {sonar.profile} "
+                         f"profile's {sonar.angle_increment:.6f}")
+    shift = int(round(((angle_min - sonar.angle_min) % (2 * math.pi)) / sonar.angle_increment)) % n \
+        if sonar.fov >= 2 * math.pi - 1e-9 else int(round((angle_min - sonar.angle_min) / sonar.angle_increment))
+    if not 0 <= shift < n:
+        raise ValueError(f"scan angle_min {angle_min:.4f} rad is outside the {sonar.profile} profile's sector")
+    idx = (shift + np.arange(n)) % n
+    out_r, stamps = np.empty(n), np.empty(n)
+    out_r[idx] = r
+    stamps[idx] = stamp + np.arange(n) * time_increment
+    return Scan(out_r, sonar.angles, stamps, np.tile(np.asarray(pose, dtype=np.float64), (n, 1)),
+                stamps > previous_stamp)
+
+
 class SonarHead:
     """An electronic sonar (all beams at once): stateless apart from the last scan."""
 
