@@ -155,3 +155,14 @@ def test_policy_for_another_sensor_profile_is_refused_naming_it(saved):
     with pytest.raises(PolicyLoadError, match="trained for sensor profile 'fls', this sonar is profile 'study'"):
         load_policy(wpath, profile="study")
     assert load_policy(wpath, profile="fls").profile == "fls"
+
+
+def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_ahead():
+    from cage_sim.controller import ArcController
+    from cage_sim.shield import SafetyShield
+    pol = load_policy()
+    obs = pol.layout.build(np.full(pol.layout.n_beams, np.inf), 10.0, 0.0) if hasattr(pol.layout, "build") \
+        else None
+    if obs is None:
+        pytest.skip("the shipped layout needs the observation builder")
+    assert SafetyShield(pol, ArcController(pol.layout)).act(obs)[0] == 0.0

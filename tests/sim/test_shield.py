@@ -131,6 +131,8 @@ def test_empty_scan_and_waypoint_dead_ahead_goes_straight():
     obs = ctrl.layout.build(np.full(ctrl.layout.n_beams, np.inf), 10.0, 0.0)
     assert ctrl.act(obs)[0] == 0.0
     assert SafetyShield(ArcController()).act(obs)[0] == 0.0
+    hard_left = SafetyShield(Constant(1.0))                 # what the first shipped policy did here
+    assert hard_left.act(obs)[0] == 0.0 and hard_left.interventions == 1
     from cage_sim.perception import Perception
     # With a 0.3 m/s drift to the left the baseline crabs to the right so its track over ground stays on the line.
     a = ctrl.decide(10.0, 0.0, Perception(np.zeros((0, 2)), drift=np.array([0.0, 0.3])))

@@ -6,7 +6,8 @@ policy's action, whether some manoeuvre the vehicle can really fly afterwards (h
 decisions, then straight; the same rollouts as the classical controller) keeps ``min_clearance``
 from every sonar return over the next ``horizon`` decisions. If one does, the action stands. If not,
 the action nearest to the policy's that has such a continuation replaces it, and when no action has
-one, the classical controller's most open manoeuvre does. Pure NumPy and deterministic, so the node
+one, the classical controller's most open manoeuvre does. In open water (no return within reach)
+the classical controller flies: straight at the waypoint, through the goal. Pure NumPy and deterministic, so the node
 graph and the offline evaluator shield alike; ``interventions`` counts the overrides.
 
 With a ``Perception`` (``decide``: drift from the DVL, returns moving with their estimated velocity,
@@ -33,6 +34,7 @@ class SafetyShield:
     horizon: int = 5                 # decisions checked: the first one plus horizon-1 of continuation
     min_clearance: float = 1.0       # m from every sonar return along the whole manoeuvre
     n_actions: int = 21              # alternative first actions tried when the policy's is unsafe
+    open_water: bool = True          # with no return in reach, fly the classical controller's action
     decisions: int = 0
     interventions: int = 0
 
@@ -101,9 +103,18 @@ class SafetyShield:
         return self.check(float(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0]), dist, err, p)
 
     def check(self, action: float, dist: float, err: float, p: Perception) -> float:
-        """``action`` (the policy's, already computed) if it is safe, else the nearest safe one."""
+        """``action`` (the policy's, already computed) if it is safe, else the nearest safe one.
+
+        Open water (no return within the classical controller's reach, ~12 m): the controller's
+        action, i.e. fly at the waypoint (crabbing against the drift) or through the goal. Nothing
+        there gives a reason to turn away, and a policy that rarely saw an empty scan in training may
+        (the shipped study policy turned hard left with the waypoint dead ahead), or may circle a goal."""
         a = float(np.clip(action, -1.0, 1.0))
         self.decisions += 1
+        if self.open_water and len(p.returns) == 0:
+            b = self.fallback.decide(dist, err, p)
+            self.interventions += int(abs(b - a) > 0.05)
+            return b
         drift_reach = float(np.abs(p.relative()).max(initial=0.0)) * self.horizon * \
             self.fallback.vehicle.decision_period if len(p.returns) else 0.0
         near = np.linalg.norm(p.returns, axis=1) < self._reach + drift_reach if len(p.returns) else \
