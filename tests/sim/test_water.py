@@ -171,3 +171,13 @@ def test_fish_are_seen_by_the_sonar_and_hit_in_the_mission():
         if outcome:
             break
     assert outcome == "collision"
+
+
+def test_sea_scenario_file_round_trips(tmp_path):
+    from cage_sim.scenarios import builtin_file, load_scenario, save_scenario
+    sc = builtin_file("sea_cage.yaml")
+    w = sc.world
+    assert sc.sensor == "fls" and w.current_modes and w.net.loss == pytest.approx(0.4) and len(w.schools) == 2
+    save_scenario(sc, tmp_path / "again.yaml")
+    back = load_scenario(tmp_path / "again.yaml")
+    assert back.world == w and back.sensor == sc.sensor and back.goal == sc.goal

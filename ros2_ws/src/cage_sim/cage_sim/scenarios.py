@@ -471,6 +471,7 @@ SCENARIOS: dict[str, Sampler] = {
     "cage": lambda rng: generate_cage(rng),
     "cage_moving": lambda rng: generate_cage(rng, CageParams(n_moving=3, current_speed=0.1), "cage_moving"),
     "full_cage": _file_sampler("full_cage.yaml"),
+    "sea_cage": _file_sampler("sea_cage.yaml"),
 }
 
 
