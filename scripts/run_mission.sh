@@ -1,15 +1,26 @@
 #!/usr/bin/env bash
-# Launch-free graph run: starts sim_node, vehicle_node, rrt_node and policy_node (one process each,
-# via `ros2 run`, the same in both worlds), sends the scenario's goal, waits for the outcome, stops
+# Launch-free graph run: starts sim_node, vehicle_node, rrt_node, policy_node and navigator_node (one
+# process each, via `ros2 run`, the same in both worlds), sends the scenario's goal, waits for the outcome, stops
 # every process it started, and exits with the mission client's status (0 = goal reached).
+# SIGINT/SIGTERM/SIGHUP stop every node it started (SIGINT, then SIGKILL after 5 s) and exit 130/143/129;
+# a node that exits before the mission ends (refused to start, or crashed) is named, the rest are
+# stopped, and the script exits 70. No node outlives the script, even one killed with SIGKILL.
+#
+# The graph runs in the namespace --ns (default /cage: topics /cage/scan, /cage/odom, ..., the
+# navigator's action /cage/navigate); the mission client sends the scenario's goal on that action.
+# --keep leaves the graph running after the first mission, for goal after goal
+# (`ros2 action send_goal /cage/navigate ...`, or RViz's goal tool on --goal-topic) until Ctrl-C.
 #
 #   scripts/run_mission.sh [--scenario NAME|FILE] [--seed N] [--policy FILE|baseline] [--timeout S]
-#                          [--time-scale X] [--record DIR] [--png FILE] [--out DIR]
+#                          [--time-scale X] [--record DIR] [--png FILE] [--out DIR] [--ns NS]
+#                          [--goal-topic TOPIC] [--keep]
 #
-# Isolated by ROS_DOMAIN_ID (a free one is picked unless set). Node logs go to <out>/logs/.
+# Isolated by ROS_DOMAIN_ID (unless set, a free one is picked: no DDS participant seen on it for
+# 1 s). Node logs go to <out>/logs/.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scenario=full_cage seed=0 policy="" timeout=120 time_scale=20.0 record="" png="" out="$root/out"
+ns=/cage goal_topic=/goal_pose keep=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --scenario) scenario=$2; shift 2 ;;
@@ -20,7 +31,10 @@ while [ $# -gt 0 ]; do
     --record) record=$2; shift 2 ;;
     --png) png=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    --ns) ns=$2; shift 2 ;;
+    --goal-topic) goal_topic=$2; shift 2 ;;
+    --keep) keep=1; shift ;;
+    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
     *) echo "run_mission.sh: unknown argument $1" >&2; exit 64 ;;
   esac
 done
@@ -31,51 +45,114 @@ if ! command -v ros2 >/dev/null 2>&1 && [ -x "$root/.venv/bin/ros2" ]; then
   export PATH="$root/.venv/bin:$PATH"
 fi
 command -v ros2 >/dev/null || { echo "run_mission.sh: no ros2 command (run scripts/setup.sh, or source ROS 2)" >&2; exit 69; }
-export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( (($$ + RANDOM) % 90) + 10 ))}  # 10..99: clear of ephemeral ports
+if [ -z "${ROS_DOMAIN_ID:-}" ]; then
+  py=python3; [ -x "$root/.venv/bin/python" ] && py="$root/.venv/bin/python"
+  if ! ROS_DOMAIN_ID=$("$py" "$root/scripts/free_domain.py"); then
+    ROS_DOMAIN_ID=$(( (($$ + RANDOM) % 90) + 10 ))  # 10..99: clear of ephemeral ports
+    echo "[run_mission] could not check for a free ROS_DOMAIN_ID: using $ROS_DOMAIN_ID unchecked" >&2
+  fi
+fi
+export ROS_DOMAIN_ID
 export PYTHONUNBUFFERED=1 MPLBACKEND=Agg
 logs="$out/logs"
 mkdir -p "$logs"
 cfg="$root/ros2_ws/src"
-shared=(--params-file "$cfg/cage_sim/config/graph.yaml" -p "scenario:=$scenario" -p "seed:=$seed" -p "time_scale:=$time_scale")
-pids=()
+shared=(-r "__ns:=$ns" --params-file "$cfg/cage_sim/config/graph.yaml" -p "scenario:=$scenario" -p "seed:=$seed"
+        -p "time_scale:=$time_scale")
+rrt_params=(--params-file "$cfg/cage_global_rrt/config/rrt.yaml")
+pids=() names=()
+stopping=0
+
+# Each node runs under a guard that asks the kernel to SIGINT it when this script dies, however it
+# dies (kill -9 included), so no node outlives the script; nodes stay in the script's process group,
+# so `timeout -k` (which signals the whole group) reaches them too.
+guard='import ctypes, os, signal, sys
+ctypes.CDLL(None).prctl(1, signal.SIGINT)          # PR_SET_PDEATHSIG
+if os.getppid() != int(sys.argv[1]): sys.exit(1)   # the script died before prctl
+os.execvp(sys.argv[2], sys.argv[2:])'
+py=$(command -v python3 || command -v python)
 
 start() {  # start <log name> <ros2 run args...>
   local name=$1; shift
-  ros2 run "$@" >"$logs/$name.log" 2>&1 &
-  pids+=($!)
+  "$py" -c "$guard" $$ ros2 run "$@" >"$logs/$name.log" 2>&1 &
+  pids+=($!) names+=("$name")
 }
 
-stop_all() {
-  local pid
+stop_all() {  # SIGINT everything started, SIGKILL what is left after the grace period, reap all
+  [ ${#pids[@]} -eq 0 ] && return
+  local i pid alive
   for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null; done
   for _ in $(seq 50); do
-    local alive=0
+    alive=0
     for pid in "${pids[@]}"; do kill -0 "$pid" 2>/dev/null && alive=1; done
-    [ $alive -eq 0 ] && return
+    [ $alive -eq 0 ] && break
     sleep 0.1
   done
-  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null; done
+  for i in "${!pids[@]}"; do
+    if kill -0 "${pids[$i]}" 2>/dev/null; then
+      echo "[run_mission] ${names[$i]} did not stop within 5 s of SIGINT: SIGKILL" >&2
+      kill -KILL "${pids[$i]}" 2>/dev/null
+    fi
+  done
+  for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null; done
+  pids=() names=()
+}
+
+on_signal() {  # on_signal <name> <exit status>
+  [ $stopping -eq 1 ] && return
+  stopping=1
+  echo "[run_mission] SIG$1: stopping every node this script started" >&2
+  stop_all
+  echo "[run_mission] stopped (SIG$1)" >&2
+  exit "$2"
 }
 trap stop_all EXIT
-trap 'exit 130' INT TERM
+trap 'on_signal INT 130' INT
+trap 'on_signal TERM 143' TERM
+trap 'on_signal HUP 129' HUP
 
-echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_DOMAIN_ID=$ROS_DOMAIN_ID time_scale=$time_scale"
+echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_DOMAIN_ID=$ROS_DOMAIN_ID time_scale=$time_scale ns=$ns"
 policy_args=()
 [ -n "$policy" ] && policy_args=(-p "policy:=$policy")
-[ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -p "output:=$record"
+[ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -r "__ns:=$ns" -p "output:=$record"
 start policy_node cage_reactive_ddpg policy_node --ros-args "${shared[@]}" "${policy_args[@]}"
-start rrt_node cage_global_rrt rrt_node --ros-args --params-file "$cfg/cage_global_rrt/config/rrt.yaml" "${shared[@]}"
+start rrt_node cage_global_rrt rrt_node --ros-args "${rrt_params[@]}" "${shared[@]}"
+start navigator_node cage_sim navigator_node --ros-args "${shared[@]}" -r "goal_pose:=$goal_topic" \
+  -p "planner_config:=$cfg/cage_global_rrt/config/rrt.yaml"
 start vehicle_node cage_sim vehicle_node --ros-args "${shared[@]}"
 start sim_node cage_sim sim_node --ros-args "${shared[@]}"
 
-ros2 run cage_sim mission_client --ros-args "${shared[@]}" -p "timeout:=$timeout" -p "png:=$png" \
-  2> >(tee "$logs/mission_client.log" >&2)
-rc=$?
-if [ $rc -ne 0 ]; then
+start mission_client cage_sim mission_client --ros-args "${shared[@]}" -p "timeout:=$timeout" -p "png:=$png"
+client=$!
+tail -n +1 -F --pid=$$ "$logs/mission_client.log" 2>/dev/null &  # the client's progress on the console
+tailer=$!
+
+# Wait for the client; a node that exits first (start-up refused, or a crash mid-mission) ends the
+# run at once: say which, stop the rest, exit 70. `wait -n` returns on any child, and on a signal.
+rc=""
+while [ -z "$rc" ]; do
+  wait -n "${pids[@]}" 2>/dev/null
+  for i in "${!pids[@]}"; do
+    pid=${pids[$i]}
+    kill -0 "$pid" 2>/dev/null && continue
+    wait "$pid"; status=$?
+    if [ "$pid" = "$client" ]; then rc=$status; break; fi
+    echo "[run_mission] ${names[$i]} exited with status $status before the mission ended; stopping the rest" >&2
+    tail -n 5 "$logs/${names[$i]}.log" | sed "s/^/[${names[$i]}] /" >&2
+    rc=70
+    break
+  done
+done
+if [ $keep -eq 1 ] && [ "$rc" -ne 70 ]; then
+  echo "[run_mission] the graph keeps running (ROS_DOMAIN_ID=$ROS_DOMAIN_ID, action $ns/navigate, goals on" \
+       "$goal_topic); Ctrl-C stops it"
+  while :; do sleep 1; done
+fi
+kill "$tailer" 2>/dev/null; wait "$tailer" 2>/dev/null
+if [ "$rc" -ne 0 ] && [ "$rc" -ne 70 ]; then
   echo "[run_mission] mission failed (exit $rc); last node log lines:" >&2
   for f in "$logs"/*.log; do echo "--- $f" >&2; tail -n 5 "$f" >&2; done
 fi
 stop_all
 trap - EXIT
-for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null; done
 exit $rc

@@ -17,7 +17,7 @@ def test_defaults_are_the_library_defaults_but_seeded():
 
 
 def test_shipped_yaml_is_valid_and_complete():
-    params = yaml.safe_load(CONFIG.read_text())["rrt_node"]["ros__parameters"]
+    params = yaml.safe_load(CONFIG.read_text())["/**/rrt_node"]["ros__parameters"]
     assert set(params) == set(NODE_PARAMETERS)
     for name, value in params.items():
         assert type(value) is type(NODE_PARAMETERS[name]), name

@@ -24,11 +24,13 @@ def ros_env(tmp_path) -> dict[str, str]:
 
 @pytest.fixture
 def launch(ros_env, tmp_path) -> Iterator[Callable[..., Proc]]:
-    """launch(pkg, exe, *ros_args): `ros2 run pkg exe --ros-args ...`; stopped (SIGINT) at teardown."""
+    """launch(pkg, exe, *ros_args): `ros2 run pkg exe --ros-args -r __ns:=/cage ...` (the scripts' default
+    namespace, unless the arguments name another); stopped (SIGINT) at teardown."""
     procs: list[Proc] = []
 
     def _launch(pkg: str, exe: str, *ros_args: str) -> Proc:
-        argv = ["ros2", "run", pkg, exe] + (["--ros-args", *ros_args] if ros_args else [])
+        ns = [] if any(a.startswith("__ns:=") for a in ros_args) else ["-r", "__ns:=/cage"]
+        argv = ["ros2", "run", pkg, exe, "--ros-args", *ns, *ros_args]
         p = Proc(argv, ros_env, tmp_path / f"{exe}-{len(procs)}.log")
         procs.append(p)
         return p

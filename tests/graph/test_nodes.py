@@ -4,13 +4,13 @@ from __future__ import annotations
 import math
 
 import pytest
-from cage_planner_msgs.msg import HeadingSetpoint, MissionEvent, PlannerStatus
+from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent, PlannerStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry, Path
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
-from cage_sim.ros_convert import odom_pose, path_msg, scan_msg, time_msg, world_to_map, yaw_to_quaternion
+from cage_sim.ros_convert import mission_msg, odom_pose, scan_msg, time_msg, world_to_map, yaw_to_quaternion
 from cage_sim.scenarios import builtin_file
 from cage_sim.sonar import SonarModel
 from cage_sim.vehicle import propagate
@@ -39,13 +39,13 @@ class PolicyRig:
         self.probe = probe
         self.setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
         self.events = probe.listen(MissionEvent, "/cage/mission_event")
-        plan_pub = probe.node.create_publisher(Path, "/cage/plan", LATCHED)
+        mission_pub = probe.node.create_publisher(Mission, "/cage/mission", LATCHED)
         self.odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
         self.scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
         self.node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline", *params)
         assert connected(probe, self.scan_pub), self.node.output
-        plan_pub.publish(path_msg([(0.0, 0.0), (20.0, 0.0)], 0))
-        assert probe.until(lambda: "following a plan" in self.node.output, 10), self.node.output
+        mission_pub.publish(mission_msg(1, Mission.ACTIVE, (20.0, 0.0), [(20.0, 0.0)], 0))
+        assert probe.until(lambda: "following a route" in self.node.output, 10), self.node.output
         self.sonar = SonarModel()
 
     def decision(self, t_s: int, ranges, x: float | None = None) -> bool:
@@ -120,7 +120,7 @@ def test_rrt_node_plans_and_reports_failures(launch, probe):
     statuses = probe.listen(PlannerStatus, "/cage/planner_status", LATCHED)
     map_pub = probe.node.create_publisher(type(world_to_map(sc.world, 0)), "/cage/map", LATCHED)
     odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
-    goal_pub = probe.node.create_publisher(PoseStamped, "/goal_pose", 10)
+    goal_pub = probe.node.create_publisher(PoseStamped, "/cage/plan_request", 10)
     node = launch("cage_global_rrt", "rrt_node", "--params-file", str(ROOT / "ros2_ws/src/cage_global_rrt/config/rrt.yaml"))
     map_pub.publish(world_to_map(sc.world, 0))
     assert connected(probe, goal_pub), node.output
@@ -129,12 +129,16 @@ def test_rrt_node_plans_and_reports_failures(launch, probe):
         odom_pub.publish(odom(*sc.start, 0))
         probe.until(lambda: False, 0.3)
         g = PoseStamped()
-        g.header.frame_id = "map"
+        g.header.frame_id, g.header.stamp = "map", time_msg(stamp[0])
+        stamp[0] += 1
         g.pose.position.x, g.pose.position.y = x, y
         n = len(statuses)
         goal_pub.publish(g)
         assert probe.until(lambda: len(statuses) > n, 10), node.output
+        assert statuses[-1].header.stamp == g.header.stamp, "the answer carries the request's stamp"
         return statuses[-1]
+
+    stamp = [1_000]
 
     st = ask(*sc.goal)
     assert st.code == PlannerStatus.SUCCESS and st.n_waypoints >= 2
@@ -189,4 +193,5 @@ def test_policy_node_asks_for_a_replan_without_progress(launch, probe):
         assert rig.decision(k, [10.0] * 72, x=0.0), rig.node.output
     replans = lambda: [e for e in rig.events if e.event == MissionEvent.REPLAN_REQUESTED]  # noqa: E731
     assert probe.until(lambda: len(replans()) > 0, 5), rig.node.output
-    assert "no progress" in replans()[0].detail
+    assert "no progress" in replans()[0].detail and replans()[0].mission_id == 1
+    assert all(sp.mission_id == 1 for sp in rig.setpoints)

@@ -28,6 +28,7 @@ setup(
             'sim_node = cage_sim.sim_node:main',
             'vehicle_node = cage_sim.vehicle_node:main',
             'mission_client = cage_sim.mission_client_node:main',
+            'navigator_node = cage_sim.navigator_node:main',
             'recorder_node = cage_sim.recorder_node:main',
             'cage_demo = cage_sim.demo:main',
         ],

@@ -33,7 +33,7 @@ def node_options(path: str | Path | None = None) -> PlannerOptions:
     """The planner options the rrt_node runs with (its YAML over its declared defaults)."""
     data = yaml.safe_load(Path(path or node_config_path()).read_text()) or {}
     params = dict(NODE_PARAMETERS)
-    params.update((data.get("rrt_node") or {}).get("ros__parameters") or {})
+    params.update((data.get("/**/rrt_node") or data.get("rrt_node") or {}).get("ros__parameters") or {})
     return options_from_parameters(params)
 
 

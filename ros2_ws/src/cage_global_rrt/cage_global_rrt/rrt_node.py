@@ -1,11 +1,13 @@
 """rrt_node: the ROS 2 adapter over the planning core (``GlobalPlanner``).
 
-Subscribes: /cage/map (cage_planner_msgs/CageMap, latched), /cage/odom (nav_msgs/Odometry),
-/goal_pose (geometry_msgs/PoseStamped, RViz's goal tool), /cage/mission_event
-(cage_planner_msgs/MissionEvent; REPLAN_REQUESTED replans to the last goal from the current pose).
-Publishes, latched: /cage/plan (nav_msgs/Path in ``frame_id``) and /cage/planner_status
-(cage_planner_msgs/PlannerStatus) once per request, SUCCESS or the failure code. A failed request
-publishes an empty Path, so nobody keeps following a plan made for another goal.
+Subscribes (relative names, so ``__ns:=/auv1`` moves it with its vehicle): ``map``
+(cage_planner_msgs/CageMap, latched), ``odom`` (nav_msgs/Odometry), ``plan_request``
+(geometry_msgs/PoseStamped: the navigator's goal), ``mission_event`` (REPLAN_REQUESTED replans to the
+last goal from the current pose). Publishes, latched: ``plan`` (nav_msgs/Path in ``frame_id``) and
+``planner_status`` (cage_planner_msgs/PlannerStatus) once per request, SUCCESS or the failure code,
+both stamped with the request's stamp (a replan keeps it), so the navigator pairs each answer with
+the goal it asked for. A failed request publishes an empty Path, so nobody keeps following a plan
+made for another goal.
 
 Bad parameters stop the node at start with one clear message; bad input in a callback is logged
 and published as a status, never raised.
@@ -22,7 +24,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from cage_sim.node_runner import run_node
-from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw
+from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw, stamp_ns
 
 from .known_map import KnownMap
 from .options import NODE_PARAMETERS, InvalidParameters, options_from_parameters
@@ -42,13 +44,14 @@ class RrtNode(Node):
         self.planner = GlobalPlanner(options=options_from_parameters(values))
         self.pose: tuple[float, float, float] | None = None
         self.goal: tuple[float, ...] | None = None
+        self.request_ns: int | None = None     # stamp of the request being answered
         self.waiting_for_map = False
-        self.plan_pub = self.create_publisher(Path, "/cage/plan", LATCHED)
-        self.status_pub = self.create_publisher(PlannerStatus, "/cage/planner_status", LATCHED)
-        self.create_subscription(CageMap, "/cage/map", self._guard(self.on_map), LATCHED)
-        self.create_subscription(Odometry, "/cage/odom", self._guard(self.on_odom, report=False), 10)
-        self.create_subscription(PoseStamped, "/goal_pose", self._guard(self.on_goal), 10)
-        self.create_subscription(MissionEvent, "/cage/mission_event", self._guard(self.on_event), 10)
+        self.plan_pub = self.create_publisher(Path, "plan", LATCHED)
+        self.status_pub = self.create_publisher(PlannerStatus, "planner_status", LATCHED)
+        self.create_subscription(CageMap, "map", self._guard(self.on_map), LATCHED)
+        self.create_subscription(Odometry, "odom", self._guard(self.on_odom, report=False), 10)
+        self.create_subscription(PoseStamped, "plan_request", self._guard(self.on_goal), 10)
+        self.create_subscription(MissionEvent, "mission_event", self._guard(self.on_event), 10)
         o = self.planner.options
         self.get_logger().info(f"rrt_node ready: {o.planner}, step {o.max_step} m, clearance {o.clearance} m, "
                                f"dubins {o.dubins}, frame {self.frame_id}")
@@ -87,6 +90,7 @@ class RrtNode(Node):
             self.pose = pose
 
     def on_goal(self, msg) -> None:
+        self.request_ns = stamp_ns(msg.header.stamp)
         frame = msg.header.frame_id
         if frame and frame != self.frame_id:
             self.publish(PlanResult(PlanStatus.INVALID_INPUT, f"goal in frame {frame!r}, expected {self.frame_id!r}"))
@@ -110,9 +114,9 @@ class RrtNode(Node):
         """Plan from the current pose to the last goal and publish the outcome."""
         self.waiting_for_map = self.planner.kmap is None
         if self.planner.kmap is None:
-            result = PlanResult(PlanStatus.NO_MAP, "no map received on /cage/map yet")
+            result = PlanResult(PlanStatus.NO_MAP, "no map received on the map topic yet")
         elif self.pose is None:
-            result = PlanResult(PlanStatus.NO_POSE, "no pose received on /cage/odom yet")
+            result = PlanResult(PlanStatus.NO_POSE, "no pose received on the odom topic yet")
         else:
             # R^2 plans ignore headings; Dubins plans start at the vehicle's heading
             result = self.planner.plan(self.pose, self.goal)
@@ -120,7 +124,7 @@ class RrtNode(Node):
 
     def publish(self, result: PlanResult, clear_plan: bool = True) -> None:
         """Status always; the path on success, an empty path on a failed request (``clear_plan``)."""
-        ns = self.get_clock().now().nanoseconds
+        ns = self.request_ns if self.request_ns is not None else self.get_clock().now().nanoseconds
         if result.ok:
             pts = np.column_stack((result.waypoints, result.headings))
             self.plan_pub.publish(path_msg(pts, ns, self.frame_id))

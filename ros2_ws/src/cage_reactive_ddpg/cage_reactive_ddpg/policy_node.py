@@ -10,7 +10,12 @@ Safety: weights that do not match this build are refused at start (exit 2, namin
 A scan of the wrong size, or with too many invalid (NaN / negative) ranges, gets a failsafe
 setpoint (hold station) and a FAILSAFE mission event instead of a decision; scans that stop coming
 are reported the same way. With no progress along the route for ``replan_after`` decisions the node
-asks the global planner for a new plan (REPLAN_REQUESTED on /cage/mission_event).
+asks the global planner for a new plan (REPLAN_REQUESTED on ``mission_event``).
+
+Missions come from the navigator (``mission``, latched): a new id is followed from its first decision
+(the route tracker starts at the pose of that decision, as the simulator's judge does); the same id
+with new waypoints is a replan; CANCELED or an outcome stops the decisions. Setpoints carry the
+mission id, and SOURCE_SHIELD when the shield replaced the policy's action. Topic names are relative.
 """
 from __future__ import annotations
 
@@ -19,15 +24,18 @@ import time
 from collections import OrderedDict
 
 import numpy as np
-from cage_planner_msgs.msg import HeadingSetpoint, MissionEvent
+from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
 from cage_sim.mission import EnvConfig
-from cage_sim.node_common import decision_period_ns, declare, declare_vehicle
+from cage_sim.node_common import check, decision_period_ns, declare, declare_vehicle
 from cage_sim.node_runner import run_node
-from cage_sim.ros_convert import EVENT_OUTCOMES, odom_pose, path_points, stamp_ns, time_msg
+from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
+from cage_sim.recovery import joining_under_way, remaining_route
 from cage_sim.route import RouteTracker
+from cage_sim.scan_check import ScanSpec, scan_problem
+from cage_sim.watchdog import Silence
 from cage_sim.shield import SafetyShield
-from nav_msgs.msg import Odometry, Path
+from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
@@ -44,10 +52,20 @@ class PolicyNode(Node):
         self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
                          replan_after=40, min_progress=2.0, waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
+        self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0))
+        self.check_parameters()
         self.layout = EnvConfig().layout
+        self.scan_spec = ScanSpec.from_sonar(EnvConfig().sonar, self.p["sensor_frame_id"], self.p["max_invalid_fraction"])
+        self.scan_timeout_ns = int(round(self.p["scan_timeout"] * 1e9))
+        self.last_scan_ns: int | None = None          # sim time of the last scan: the decision watchdog
+        self.scans_wall = Silence(self.p["liveness_timeout"])   # wall time: the simulator's liveness
+        self.republished_wall = 0.0
+        self.missions_seen = 0
         self.policy, self.source = self.load(self.p["policy"])
         self.period_ns = decision_period_ns(self.vehicle)
         self.tracker: RouteTracker | None = None
+        self.mission_id = 0
+        self.route: np.ndarray | None = None     # the mission's route; the tracker starts at its first decision
         self.odoms: OrderedDict[int, tuple[float, float, float]] = OrderedDict()
         self.last_decision: HeadingSetpoint | None = None
         self.last_scan_wall: float | None = None
@@ -55,13 +73,28 @@ class PolicyNode(Node):
         self.finished = False
         self.best_remaining, self.since_progress = math.inf, 0
 
-        self.setpoint_pub = self.create_publisher(HeadingSetpoint, "/cage/heading_setpoint", 10)
-        self.event_pub = self.create_publisher(MissionEvent, "/cage/mission_event", 10)
-        self.create_subscription(LaserScan, "/cage/scan", self.on_scan, qos_profile_sensor_data)
-        self.create_subscription(Odometry, "/cage/odom", self.on_odom, 10)
-        self.create_subscription(Path, "/cage/plan", self.on_plan, LATCHED)
-        self.create_subscription(MissionEvent, "/cage/mission_event", self.on_event, 10)
+        self.setpoint_pub = self.create_publisher(HeadingSetpoint, "heading_setpoint", 10)
+        self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
+        self.create_subscription(LaserScan, "scan", self.on_scan, qos_profile_sensor_data)
+        self.create_subscription(Odometry, "odom", self.on_odom, 10)
+        self.create_subscription(Mission, "mission", self.on_mission, LATCHED)
+        self.create_subscription(MissionEvent, "mission_event", self.on_event, 10)
         self.create_timer(0.1, self.watch_scans)
+
+    def check_parameters(self) -> None:
+        """One line naming a bad parameter (exit 2), not a node that misbehaves later."""
+        p = self.p
+        fin = lambda v: isinstance(v, (int, float)) and math.isfinite(v)  # noqa: E731
+        check("scan_timeout", p["scan_timeout"], fin(p["scan_timeout"]) and 0 < p["scan_timeout"] <= 60,
+              "in (0, 60] sim seconds")
+        check("max_invalid_fraction", p["max_invalid_fraction"],
+              fin(p["max_invalid_fraction"]) and 0 <= p["max_invalid_fraction"] <= 1, "in [0, 1]")
+        check("replan_after", p["replan_after"], isinstance(p["replan_after"], int) and p["replan_after"] >= 1,
+              "an integer >= 1")
+        check("min_progress", p["min_progress"], fin(p["min_progress"]) and p["min_progress"] >= 0, ">= 0")
+        check("waypoint_radius", p["waypoint_radius"], fin(p["waypoint_radius"]) and p["waypoint_radius"] > 0, "> 0")
+        check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0,
+              "> 0 s")
 
     def load(self, spec: str):
         if spec == "baseline":
@@ -71,6 +104,8 @@ class PolicyNode(Node):
             pol = load_policy(spec or None, self.layout, self.vehicle)
         except PolicyLoadError as err:
             raise ValueError(str(err)) from None
+        except (AttributeError, KeyError, TypeError, IndexError) as err:   # a metadata field of the wrong shape
+            raise ValueError(f"policy {spec or 'shipped'}: malformed metadata ({type(err).__name__}: {err})") from None
         rates = pol.metadata.get("evaluation", {}).get("rates", {})
         self.get_logger().info(f"policy {pol.path} loaded (training evaluation: {rates}); "
                                f"safety shield {'on' if self.p['shield'] else 'off'}")
@@ -80,37 +115,76 @@ class PolicyNode(Node):
 
     # --- inputs ----------------------------------------------------------------------------
     def on_odom(self, msg: Odometry) -> None:
-        self.odoms[stamp_ns(msg.header.stamp)] = odom_pose(msg)
+        t_ns, pose = stamp_ns(msg.header.stamp), odom_pose(msg)
+        if t_ns < 0 or not all(math.isfinite(v) for v in pose):
+            self.get_logger().warning("ignoring odometry with a negative stamp or a non-finite pose",
+                                      throttle_duration_sec=5.0)
+            return
+        self.odoms[t_ns] = pose
         while len(self.odoms) > 64:
             self.odoms.popitem(last=False)
+        self.watch_scans_sim(t_ns, pose)
 
-    def on_plan(self, msg: Path) -> None:
-        pts = path_points(msg)
-        if len(pts) == 0 or not np.isfinite(pts).all():
-            self.get_logger().warning("ignoring an empty or non-finite plan")
+    def watch_scans_sim(self, t_ns: int, pose) -> None:
+        """The clock runs but the scans stopped (simulator dead or paused): hold station within
+        ``scan_timeout`` *sim* seconds, whatever the time scale."""
+        if (self.finished or self.tracker is None or self.last_scan_ns is None or self.scan_stale
+                or t_ns - self.last_scan_ns <= self.scan_timeout_ns):
             return
-        start = next(reversed(self.odoms.values())) if self.odoms else pts[0]
-        self.tracker = RouteTracker(start[:2], pts, self.p["waypoint_radius"])
+        self.scan_stale = True
+        self.failsafe(t_ns, pose, f"no scan for {(t_ns - self.last_scan_ns) / 1e9:.1f} s of sim time")
+
+    def on_mission(self, msg: Mission) -> None:
+        if msg.state == Mission.CANCELED:
+            if msg.id >= self.mission_id and not self.finished:
+                self.finished = True
+                self.get_logger().info(f"mission {msg.id} canceled: no more decisions")
+            return
+        pts = mission_points(msg)
+        if len(pts) == 0 or not np.isfinite(pts).all():
+            # a failed (re)plan: fly nothing rather than the old route (the vehicle holds station)
+            if msg.id >= self.mission_id and not self.finished:
+                self.mission_id, self.finished = msg.id, True
+                self.get_logger().warning(f"mission {msg.id}: empty or non-finite route: no more decisions")
+            return
+        if msg.id != self.mission_id:
+            self.missions_seen += 1
         self.best_remaining, self.since_progress = math.inf, 0
-        self.get_logger().info(f"following a plan of {len(pts)} waypoints ({self.tracker.length:.1f} m)")
+        if msg.id != self.mission_id:
+            self.mission_id, self.route, self.tracker = msg.id, pts, None
+            self.finished, self.last_decision = False, None
+            self.get_logger().info(f"mission {msg.id}: following a route of {len(pts)} waypoints")
+        elif not self.finished:
+            start = next(reversed(self.odoms.values())) if self.odoms else pts[0]
+            self.route, self.tracker = pts, RouteTracker(start[:2], pts, self.p["waypoint_radius"])
+            self.get_logger().info(f"mission {msg.id}: following a new plan of {len(pts)} waypoints "
+                                   f"({self.tracker.length:.1f} m)")
 
     def on_event(self, msg: MissionEvent) -> None:
-        if msg.event in EVENT_OUTCOMES and not self.finished:
+        if msg.event in EVENT_OUTCOMES and msg.mission_id == self.mission_id and not self.finished:
             self.finished = True
             if isinstance(self.policy, SafetyShield):
-                self.get_logger().info(f"mission over: the shield overrode {self.policy.interventions} of "
-                                       f"{self.policy.decisions} decisions")
+                self.get_logger().info(f"mission {msg.mission_id} over: the shield overrode {self.policy.interventions} "
+                                       f"of {self.policy.decisions} decisions so far")
 
     def on_scan(self, msg: LaserScan) -> None:
         self.last_scan_wall = time.monotonic()
+        if self.scans_wall.heard(self.last_scan_wall):
+            self.get_logger().info("the simulator's scans are back")
+        t_ns = stamp_ns(msg.header.stamp)
+        if t_ns < 0:
+            self.get_logger().warning("ignoring a scan with a negative stamp", throttle_duration_sec=5.0)
+            return
+        self.last_scan_ns = t_ns if self.last_scan_ns is None else max(self.last_scan_ns, t_ns)
         if self.scan_stale:
             self.scan_stale = False
             self.get_logger().info("scans are back")
-        if self.finished or self.tracker is None:
+        if self.finished or self.route is None:
             return
-        t_ns = stamp_ns(msg.header.stamp)
         if self.last_decision is not None and stamp_ns(self.last_decision.header.stamp) == t_ns:
-            self.setpoint_pub.publish(self.last_decision)   # the vehicle may not have had it yet
+            if self.last_scan_wall - self.republished_wall > 0.05:   # a flood of repeats is not re-sent
+                self.republished_wall = self.last_scan_wall
+                self.setpoint_pub.publish(self.last_decision)   # the vehicle may not have had it yet
             return
         if self.p["lockstep"]:
             if t_ns % self.period_ns:
@@ -123,6 +197,10 @@ class PolicyNode(Node):
             pose = next(reversed(self.odoms.values())) if self.odoms else None
         if pose is None:
             return  # the pose for this scan has not arrived; the vehicle republishes it while it waits
+        problem = scan_problem(self.scan_spec, msg.header.frame_id, msg.angle_min, msg.angle_increment, msg.ranges)
+        if problem is not None:
+            self.failsafe(t_ns, pose, problem)   # a rotated or foreign scan is never used
+            return
         self.decide(t_ns, pose, np.asarray(msg.ranges, dtype=np.float64))
 
     # --- decision --------------------------------------------------------------------------
@@ -144,16 +222,30 @@ class PolicyNode(Node):
             self.failsafe(t_ns, pose, problem)
             return
         ranges = np.where(ranges < 0, np.nan, ranges)
+        if self.tracker is None:   # the mission's first decision: the route starts here
+            route = self.route
+            if joining_under_way(self.missions_seen == 1, t_ns):   # restarted mid-mission: not back to its start
+                route = remaining_route(route, (x, y))
+                self.get_logger().info(f"mission {self.mission_id}: joined under way at t={t_ns / 1e9:.1f} s, "
+                                       f"{len(route)} of {len(self.route)} waypoints ahead")
+            self.tracker = RouteTracker((x, y), route, self.p["waypoint_radius"])
+            self.get_logger().info(f"mission {self.mission_id}: first decision at t={t_ns / 1e9:.1f} s, "
+                                   f"route {self.tracker.length:.1f} m")
         self.tracker.advance(x, y)
         dist, err = self.tracker.waypoint(x, y, yaw)
         obs = self.layout.build(ranges, dist, err)
+        overrides = getattr(self.policy, "interventions", 0)
         action = float(np.clip(np.asarray(self.policy.act(obs)).reshape(-1)[0], -1.0, 1.0))
-        self.publish_setpoint(t_ns, yaw + action * self.vehicle.max_turn, self.vehicle.speed, self.source)
+        shielded = getattr(self.policy, "interventions", 0) != overrides
+        source = HeadingSetpoint.SOURCE_SHIELD if shielded else self.source
+        self.publish_setpoint(t_ns, yaw + action * self.vehicle.max_turn, self.vehicle.speed, source)
+        self.get_logger().debug(f"decision {t_ns // self.period_ns}: action {action:+.3f}"
+                                f"{' (shield)' if shielded else ''}, waypoint {dist:.1f} m")
         self.watch_progress(t_ns, pose)
 
     def publish_setpoint(self, t_ns: int, heading: float, speed: float, source: int) -> None:
         sp = HeadingSetpoint(heading=float(math.atan2(math.sin(heading), math.cos(heading))), speed=float(speed),
-                             decision=int(t_ns // self.period_ns), source=source)
+                             decision=int(t_ns // self.period_ns), source=source, mission_id=self.mission_id)
         sp.header.stamp, sp.header.frame_id = time_msg(t_ns), self.p["frame_id"]
         self.setpoint_pub.publish(sp)
         self.last_decision = sp
@@ -176,16 +268,14 @@ class PolicyNode(Node):
             self.event(MissionEvent.REPLAN_REQUESTED, "policy: no progress along the route", t_ns, pose)
 
     def watch_scans(self) -> None:
-        if self.finished or self.tracker is None or self.last_scan_wall is None or self.scan_stale:
-            return
-        age = time.monotonic() - self.last_scan_wall
-        if age > self.p["scan_timeout"]:
-            self.scan_stale = True
-            t_ns, pose = next(reversed(self.odoms.items())) if self.odoms else (0, (0.0, 0.0, 0.0))
-            self.failsafe(t_ns, pose, f"no scan for {age:.1f} s")
+        """Liveliness in wall time: with the clock standing (lockstep) no sim time passes, so a dead
+        simulator is only noticed this way; said once (the vehicle is not moving)."""
+        silent = self.scans_wall.check(time.monotonic())
+        if silent is not None and not self.finished and self.tracker is not None:
+            self.get_logger().warning(f"no scan for {silent:.1f} s (wall): the simulator is silent")
 
     def event(self, code: int, detail: str, t_ns: int, pose) -> None:
-        ev = MissionEvent(event=code, detail=detail, step=int(t_ns // self.period_ns))
+        ev = MissionEvent(event=code, detail=detail, step=int(t_ns // self.period_ns), mission_id=self.mission_id)
         ev.header.stamp, ev.header.frame_id = time_msg(t_ns), self.p["frame_id"]
         ev.position.x, ev.position.y = float(pose[0]), float(pose[1])
         self.event_pub.publish(ev)

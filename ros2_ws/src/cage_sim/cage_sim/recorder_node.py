@@ -1,7 +1,9 @@
 """recorder_node: records the graph's topics to MCAP (a rosbag2 folder), for Foxglove or ros2 bag play.
 
 Subscribes to each topic raw (serialized CDR, as ``ros2 bag record`` does) with the QoS its
-publisher offers, and writes every message with its receive time. On ROS 2 proper,
+publisher offers, and writes every message with its receive time under its fully qualified name
+(the names are relative: run it in the graph's namespace). metadata.yaml records the offered QoS, so
+latched topics replay latched. On ROS 2 proper,
 ``ros2 bag record -s mcap`` does the same job; this node works in both worlds.
 """
 from __future__ import annotations
@@ -39,10 +41,11 @@ class RecorderNode(Node):
         if unknown:
             raise ValueError(f"topics: cannot record {unknown}; known: {sorted(GRAPH_TOPICS)}")
         msg_dir = Path(get_package_share_directory("cage_planner_msgs")) / "msg"
-        self.rec = McapRecorder(p["output"], {t: GRAPH_TOPICS[t][0] for t in p["topics"]}, [msg_dir])
+        names = {t: self.resolve_topic_name(t) for t in p["topics"]}
+        self.rec = McapRecorder(p["output"], {names[t]: GRAPH_TOPICS[t] for t in p["topics"]}, [msg_dir])
         for topic in p["topics"]:
             msgtype, kind = GRAPH_TOPICS[topic]
-            self.create_subscription(message_class(msgtype), topic, self.writer_for(topic), QOS[kind], raw=True)
+            self.create_subscription(message_class(msgtype), topic, self.writer_for(names[topic]), QOS[kind], raw=True)
         self.get_logger().info(f"recording {len(p['topics'])} topics to {p['output']}")
 
     def writer_for(self, topic: str):

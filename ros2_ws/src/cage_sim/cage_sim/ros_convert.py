@@ -10,8 +10,8 @@ from typing import Iterable, Sequence
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from cage_planner_msgs.msg import CageMap, MissionEvent, Obstacle as ObstacleMsg
-from geometry_msgs.msg import PoseStamped, Quaternion
+from cage_planner_msgs.msg import CageMap, Mission, MissionEvent, Obstacle as ObstacleMsg
+from geometry_msgs.msg import Point, PoseStamped, Quaternion
 from nav_msgs.msg import Path
 from sensor_msgs.msg import LaserScan
 
@@ -95,3 +95,16 @@ def path_points(msg) -> np.ndarray:
 def odom_pose(msg) -> tuple[float, float, float]:
     p = msg.pose.pose
     return float(p.position.x), float(p.position.y), quaternion_to_yaw(p.orientation)
+
+
+def mission_msg(mission_id: int, state: int, goal: Sequence[float], waypoints: Iterable[Sequence[float]],
+                ns: int, frame: str = "map") -> Mission:
+    msg = Mission(id=int(mission_id), state=int(state), goal=Point(x=float(goal[0]), y=float(goal[1])),
+                  waypoints=[Point(x=float(p[0]), y=float(p[1])) for p in waypoints])
+    msg.header.stamp, msg.header.frame_id = time_msg(ns), frame
+    return msg
+
+
+def mission_points(msg) -> np.ndarray:
+    """The route of a Mission message as an (n, 2) array (goal last)."""
+    return np.array([(p.x, p.y) for p in msg.waypoints], dtype=float).reshape(-1, 2)

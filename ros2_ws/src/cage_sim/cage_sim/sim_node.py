@@ -1,18 +1,24 @@
 """sim_node: the cage world around the vehicle: known map, sonar, obstacle markers, mission judge.
 
-Publishes the known map (/cage/map, latched), a LaserScan (/cage/scan, sensor-data QoS) for every
-pose the vehicle node reports, obstacle markers (/cage/obstacles) and the vehicle's track
-(/cage/track). When a plan arrives (/cage/plan) the mission starts; at each decision boundary the
-pose is judged by the same ``Mission`` the offline env uses, and the outcome (goal, collision, wander,
-timeout) goes out on /cage/mission_event. The world and its moving obstacles follow the vehicle
-node's simulation clock (odometry stamps), so they stand still while the graph waits.
+Publishes the known map (``map``, latched), a LaserScan (``scan``, sensor-data QoS) for every pose
+the vehicle node reports, obstacle markers (``obstacles``) and the vehicle's track (``track``); all
+names are relative, so ``__ns:=/auv1`` moves the whole vehicle. The navigator's ``mission`` (latched)
+says what to judge: a new mission id starts a new ``Mission`` (new route, new judge) at the next
+decision boundary, from the pose the vehicle has there; the same id with new waypoints is a replan.
+Each decision is judged by the same ``Mission`` code the offline env uses; STARTED, WAYPOINT_REACHED
+and the outcome (goal, collision, wander, timeout) go out on ``mission_event`` with the mission id.
+The world and its moving obstacles follow the vehicle node's simulation clock (odometry stamps), so
+they stand still while the graph waits.
 """
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 
-from cage_planner_msgs.msg import CageMap, MissionEvent
+import numpy as np
+
+from cage_planner_msgs.msg import CageMap, Mission as MissionMsg, MissionEvent
 from geometry_msgs.msg import Point
 from nav_msgs.msg import Odometry, Path
 from rclpy.node import Node
@@ -21,10 +27,11 @@ from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
 from .mission import EnvConfig, Mission
-from .node_common import decision_period_ns, declare, declare_vehicle
+from .node_common import check, decision_period_ns, declare, declare_vehicle
 from .node_runner import run_node
+from .recovery import joining_under_way, remaining_route
 from .route import RouteTracker
-from .ros_convert import (OUTCOME_EVENTS, odom_pose, path_msg, path_points, scan_msg, stamp_ns, time_msg,
+from .ros_convert import (OUTCOME_EVENTS, mission_points, odom_pose, path_msg, scan_msg, stamp_ns, time_msg,
                           world_to_map)
 from .scenarios import draw_scenario
 from .sonar import SonarModel
@@ -38,8 +45,15 @@ class SimNode(Node):
         super().__init__("sim_node")
         vehicle = declare_vehicle(self)
         p = declare(self, scenario="full_cage", seed=0, frame_id="map", sensor_frame_id="base_link",
-                    n_beams=72, max_range=20.0, noise_std=0.0, dropout=0.0)
+                    n_beams=72, max_range=20.0, noise_std=0.0, dropout=0.0, marker_rate=2.0)
         self.p = p
+        fin = lambda v: isinstance(v, (int, float)) and math.isfinite(v)  # noqa: E731
+        check("n_beams", p["n_beams"], isinstance(p["n_beams"], int) and 1 <= p["n_beams"] <= 4096, "in [1, 4096]")
+        check("max_range", p["max_range"], fin(p["max_range"]) and p["max_range"] > 0, "> 0")
+        check("marker_rate", p["marker_rate"], fin(p["marker_rate"]) and 0 < p["marker_rate"] <= 100, "in (0, 100] Hz")
+        self.marker_wall = 0.0
+        self.scan_wall = 0.0
+        self.started_missions = 0
         self.scenario = draw_scenario(p["scenario"], p["seed"])
         self.world: World = self.scenario.world
         self.sonar = SonarModel(n_beams=p["n_beams"], angle_increment=2 * math.pi / p["n_beams"],
@@ -47,16 +61,19 @@ class SimNode(Node):
         self.config = EnvConfig(vehicle=vehicle, sonar=self.sonar)
         self.period_ns = decision_period_ns(vehicle)
         self.mission: Mission | None = None
+        self.mission_id = 0
+        self.pending: MissionMsg | None = None     # a new mission, started at the next decision boundary
+        self.first_decision = 0                    # decision index of the mission's start
         self.last_judged_ns = -1
         self.last_pose: tuple[int, tuple[float, float, float]] | None = None
 
-        self.map_pub = self.create_publisher(CageMap, "/cage/map", LATCHED)
-        self.marker_pub = self.create_publisher(MarkerArray, "/cage/obstacles", LATCHED)
-        self.scan_pub = self.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
-        self.event_pub = self.create_publisher(MissionEvent, "/cage/mission_event", 10)
-        self.track_pub = self.create_publisher(Path, "/cage/track", LATCHED)
-        self.create_subscription(Odometry, "/cage/odom", self.on_odom, 10)
-        self.create_subscription(Path, "/cage/plan", self.on_plan, LATCHED)
+        self.map_pub = self.create_publisher(CageMap, "map", LATCHED)
+        self.marker_pub = self.create_publisher(MarkerArray, "obstacles", LATCHED)
+        self.scan_pub = self.create_publisher(LaserScan, "scan", qos_profile_sensor_data)
+        self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
+        self.track_pub = self.create_publisher(Path, "track", LATCHED)
+        self.create_subscription(Odometry, "odom", self.on_odom, 10)
+        self.create_subscription(MissionMsg, "mission", self.on_mission, LATCHED)
 
         # Compile (or load from numba's cache) the sonar before anyone waits on a scan.
         self.sonar.scan(self.world, *self.scenario.start)
@@ -67,55 +84,103 @@ class SimNode(Node):
             f"{len(self.world.unknown)} unknown obstacles; goal ({self.scenario.goal[0]:.1f}, "
             f"{self.scenario.goal[1]:.1f})")
 
-    def on_plan(self, msg: Path) -> None:
-        pts = path_points(msg)
-        if len(pts) == 0:
-            self.get_logger().warning("empty plan: ignored")
+    def on_mission(self, msg: MissionMsg) -> None:
+        if msg.state == MissionMsg.CANCELED:
+            if msg.id >= self.mission_id:
+                self.get_logger().info(f"mission {msg.id} canceled: no longer judged")
+                self.mission, self.pending = None, None
             return
-        if self.mission is not None and self.mission.outcome is not None:
+        pts = mission_points(msg)
+        if len(pts) == 0 or not np.isfinite(pts).all():
+            self.get_logger().warning(f"mission {msg.id}: empty or non-finite route: ignored")
             return
-        if self.mission is None:
-            start = self.last_pose[1] if self.last_pose else self.scenario.start
-            sc = self.scenario.with_waypoints(pts)
-            self.mission = Mission(replace(sc, start=start), self.config)
-            self.get_logger().info(f"mission started: {len(pts)} waypoints, route {self.mission.route_length:.1f} m")
-        else:
-            m = self.mission
-            m.tracker = RouteTracker((m.x, m.y), pts, self.config.waypoint_radius)
-            m.route = m.tracker.route
-            self.get_logger().info(f"replanned: {len(pts)} waypoints")
+        if msg.id != self.mission_id:
+            self.pending = msg
+            self.get_logger().debug(f"mission {msg.id}: starts at the next decision boundary")
+            if self.last_pose is not None and self.last_pose[0] % self.period_ns == 0:
+                self.start_pending(*self.last_pose)
+            return
+        m = self.mission
+        if m is None or m.outcome is not None:
+            return
+        m.tracker = RouteTracker((m.x, m.y), pts, self.config.waypoint_radius)
+        m.route = m.tracker.route
+        self.get_logger().info(f"mission {msg.id} replanned: {len(pts)} waypoints")
+
+    def start_pending(self, t_ns: int, pose: tuple[float, float, float]) -> None:
+        """Start the pending mission at a decision boundary, from the pose the vehicle has there."""
+        msg, self.pending = self.pending, None
+        pts = mission_points(msg)
+        self.started_missions += 1
+        if joining_under_way(self.started_missions == 1, t_ns):
+            # a restarted simulator: judge the rest of the route, not a detour back to the mission start
+            pts = remaining_route(pts, pose[:2])
+            self.get_logger().info(f"mission {msg.id}: joined under way at t={t_ns / 1e9:.1f} s, "
+                                   f"{len(pts)} waypoints ahead")
+        sc = replace(self.scenario.with_waypoints(pts), start=pose, goal=(float(pts[-1][0]), float(pts[-1][1])))
+        self.mission = Mission(sc, self.config)
+        self.mission_id = msg.id
+        self.first_decision = t_ns // self.period_ns
+        self.last_judged_ns = t_ns
+        self.get_logger().info(f"mission {msg.id} started: {len(sc.waypoints)} waypoints, "
+                               f"route {self.mission.route_length:.1f} m, at t={t_ns / 1e9:.1f} s")
+        self.event(MissionEvent.STARTED, f"mission {msg.id}: route {self.mission.route_length:.1f} m", t_ns, pose)
+
+    def event(self, code: int, detail: str, t_ns: int, pose) -> None:
+        ev = MissionEvent(event=code, detail=detail, mission_id=self.mission_id,
+                          step=self.mission.steps if self.mission else 0)
+        ev.header.stamp, ev.header.frame_id = time_msg(t_ns), self.p["frame_id"]
+        ev.position.x, ev.position.y = float(pose[0]), float(pose[1])
+        self.event_pub.publish(ev)
 
     def on_odom(self, msg: Odometry) -> None:
         t_ns = stamp_ns(msg.header.stamp)
         pose = odom_pose(msg)
-        self.last_pose = (t_ns, pose)
+        if t_ns < 0 or not all(math.isfinite(v) for v in pose):
+            self.get_logger().warning("ignoring odometry with a negative stamp or a non-finite pose",
+                                      throttle_duration_sec=5.0)
+            return
+        if t_ns < self.last_judged_ns:
+            self.get_logger().warning(f"ignoring odometry from the past (t={t_ns / 1e9:.2f} s, judged up to "
+                                      f"{self.last_judged_ns / 1e9:.2f} s)", throttle_duration_sec=5.0)
+            return
+        now = time.monotonic()
+        if (t_ns, pose) == self.last_pose and now - self.scan_wall < 0.05:
+            return   # a repeat (the vehicle waiting, or a flood): it already has its scan
+        self.last_pose, self.scan_wall = (t_ns, pose), now
         t = t_ns / 1e9
-        if self.world.has_moving:
-            self.marker_pub.publish(self.markers(t_ns))
+        if self.world.has_moving and now - self.marker_wall >= 1.0 / self.p["marker_rate"]:
+            self.marker_wall = now   # bounded rate, moving ones only: 10,000 static markers are sent once
+            self.marker_pub.publish(self.markers(t_ns, moving_only=True))
         ranges = self.sonar.scan(self.world, *pose, t)
         self.scan_pub.publish(scan_msg(ranges, self.sonar, t_ns, self.p["sensor_frame_id"]))
-        if t_ns % self.period_ns == 0 and t_ns > self.last_judged_ns:
+        if t_ns % self.period_ns == 0 and self.pending is not None:
+            self.start_pending(t_ns, pose)
+        elif t_ns % self.period_ns == 0 and t_ns > self.last_judged_ns:
             self.last_judged_ns = t_ns
             self.judge(t_ns, pose)
 
     def judge(self, t_ns: int, pose: tuple[float, float, float]) -> None:
         m = self.mission
-        if m is None or m.outcome is not None or t_ns == 0:
+        if m is None or m.outcome is not None:
             return
-        expected = m.steps + 1
+        expected = self.first_decision + m.steps + 1
         if t_ns // self.period_ns != expected:
             self.get_logger().warning(f"pose for decision {t_ns // self.period_ns}, expected {expected}")
+        index = m.index
         _, outcome = m.record(*pose)
         self.track_pub.publish(path_msg(m.track, t_ns, self.p["frame_id"]))
+        if m.index != index and outcome is None:
+            self.event(MissionEvent.WAYPOINT_REACHED, f"waypoint {index + 1} of {len(m.route)} reached", t_ns, pose)
         if outcome is not None:
-            ev = MissionEvent(event=OUTCOME_EVENTS[outcome], step=m.steps,
-                              detail=f"{outcome} after {m.steps} decisions, {m.travelled:.1f} m travelled")
-            ev.header.stamp, ev.header.frame_id = time_msg(t_ns), self.p["frame_id"]
-            ev.position.x, ev.position.y = pose[0], pose[1]
-            self.event_pub.publish(ev)
-            self.get_logger().info(f"mission outcome: {ev.detail}")
+            detail = f"{outcome} after {m.steps} decisions, {m.travelled:.1f} m travelled"
+            self.event(OUTCOME_EVENTS[outcome], detail, t_ns, pose)
+            self.get_logger().info(f"mission {self.mission_id} outcome: {detail}")
+        else:
+            self.get_logger().debug(f"decision {m.steps}: ({pose[0]:.2f}, {pose[1]:.2f}), "
+                                    f"{m.remaining:.1f} m to go")
 
-    def markers(self, t_ns: int) -> MarkerArray:
+    def markers(self, t_ns: int, moving_only: bool = False) -> MarkerArray:
         out, t = [], t_ns / 1e9
         net = Marker(ns="net", id=0, type=Marker.LINE_STRIP, action=Marker.ADD)
         net.scale.x = 0.2
@@ -124,9 +189,12 @@ class SimNode(Node):
         for i in range(n + 1):
             a = 2 * math.pi * i / n
             net.points.append(Point(x=self.world.net_radius * math.cos(a), y=self.world.net_radius * math.sin(a)))
-        out.append(net)
+        if not moving_only:
+            out.append(net)
         for group, known in ((self.world.known, True), (self.world.unknown, False)):
             for i, ob in enumerate(group):
+                if moving_only and not ob.moving:
+                    continue
                 m = Marker(ns="known" if known else "unknown", id=i, action=Marker.ADD,
                            type=Marker.CUBE if ob.shape == "square" else Marker.CYLINDER)
                 m.pose.position.x, m.pose.position.y = ob.centre(t)

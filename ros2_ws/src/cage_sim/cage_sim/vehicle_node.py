@@ -123,6 +123,8 @@ class VehicleNode(Node):
             self.get_logger().warning("ignoring a setpoint with a non-finite heading or speed",
                                       throttle_duration_sec=5.0)
             return
+        if msg.mission_id != self.mission_id:
+            return  # for another mission (a preempted or canceled one)
         t = stamp_ns(msg.header.stamp)
         if self.p["lockstep"]:
             if t != self.t_ns:
@@ -135,14 +137,24 @@ class VehicleNode(Node):
         self.setpoint = msg
 
     def on_mission(self, msg: Mission) -> None:
-        """A new mission id flies again after an outcome; CANCELED of the current one holds station."""
+        """A new mission id flies again after an outcome; CANCELED of the current (or a newer, failed)
+        one holds station. A new mission that finds the vehicle holding mid-decision moves the clock
+        (not the vehicle) on to the next decision boundary: holding station takes time, and every
+        mission starts on a boundary, where the simulator starts judging it."""
         if msg.state == Mission.CANCELED:
-            if msg.id == self.mission_id and not self.finished:
+            if msg.id >= self.mission_id and not self.finished:
                 self.finished = True
                 self.get_logger().info(f"mission {msg.id} canceled: holding station")
         elif msg.id != self.mission_id:
+            if self.finished and self.p["lockstep"]:
+                self.t_ns = -(-self.t_ns // self.period_ns) * self.period_ns
+                self.setpoint = None
             self.mission_id, self.finished = msg.id, False
-            self.get_logger().info(f"mission {msg.id}: flying")
+            self.waiting.heard(time.monotonic())
+            self.get_logger().info(f"mission {msg.id}: flying from ({self.x:.2f}, {self.y:.2f}) "
+                                   f"at t={self.t_ns / 1e9:.1f} s")
+            if self.ready:
+                self.publish_pose()
 
     def on_event(self, msg: MissionEvent) -> None:
         if msg.event in EVENT_OUTCOMES and msg.mission_id == self.mission_id and not self.finished:
