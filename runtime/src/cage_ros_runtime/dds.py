@@ -118,6 +118,43 @@ def endpoint_qos(profile: 'QoSProfile', ros_type: str, *, writer: bool, user_dat
     return Qos(*policies)
 
 
+_domains: dict[int, list] = {}  # domain id -> [cyclonedds Domain or None, users]
+_domains_lock = threading.Lock()
+
+
+def _acquire_domain(domain_id: int) -> object:
+    """Create the Cyclone domain with the ROS discovery configuration once per process and domain id
+    (rmw_cyclonedds does the same with dds_create_domain); later contexts share it."""
+    from cage_ros_runtime.discovery import domain_config
+    with _domains_lock:
+        entry = _domains.get(domain_id)
+        if entry is None:
+            config = domain_config()
+            dds_domain = None
+            if config is not None:
+                from cyclonedds.domain import Domain as CycloneDomain
+                try:
+                    dds_domain = CycloneDomain(domain_id, config)
+                except Exception as exc:  # noqa: BLE001 - e.g. the domain already exists in this process
+                    raise RuntimeError(f'cannot configure DDS domain {domain_id} for discovery: {exc}') \
+                        from None
+            entry = _domains[domain_id] = [dds_domain, 0]
+        entry[1] += 1
+        return entry[0]
+
+
+def _release_domain(domain_id: int) -> None:
+    with _domains_lock:
+        entry = _domains.get(domain_id)
+        if entry is None:
+            return
+        entry[1] -= 1
+        if entry[1] <= 0:
+            del _domains[domain_id]
+            if entry[0] is not None:
+                delete_entity(entry[0])
+
+
 class Domain:
     """The DDS side of one rclpy context: the participant, topic cache and a guard condition.
 
@@ -126,6 +163,7 @@ class Domain:
 
     def __init__(self, domain_id: int) -> None:
         self.domain_id = domain_id
+        self._dds_domain = _acquire_domain(domain_id)
         self.participant = DomainParticipant(domain_id, qos=Qos(Policy.Userdata(data=b'enclave=/;')))
         self.gid = self.participant.guid.bytes
         self._topics: dict[tuple[str, str], Topic] = {}
@@ -147,6 +185,7 @@ class Domain:
         """Delete the participant and everything under it (writers send their last acks first)."""
         self._topics.clear()
         delete_entity(self.participant)
+        _release_domain(self.domain_id)
 
 
 @dataclass

@@ -90,6 +90,7 @@ class GraphObserver:
             self._nodes_reader = RawReader.create(domain_like, DISCOVERY_TOPIC, DISCOVERY_TYPE,  # type: ignore[arg-type]
                                                   _discovery_qos(False), 256)
         self._node_info: dict[bytes, Any] = {}
+        self._created = time.monotonic()
 
     def endpoints(self) -> list[Endpoint]:
         """Every alive ROS topic endpoint (`rt/` topics with mangled type names) seen so far."""
@@ -123,12 +124,44 @@ class GraphObserver:
             out.add(bytes(sample.key.bytes))
         return out
 
-    def nodes(self) -> list[tuple[str, str]]:
-        """(namespace, name) of every node announced in ros_discovery_info by an alive participant."""
+    def _discovery_writers(self) -> set[bytes]:
+        """Participants that publish ros_discovery_info (ROS participants), as discovered so far."""
+        out = set()
+        for sample in self._pub.read(N=10000):
+            info = getattr(sample, 'sample_info', None)
+            if info is not None and info.instance_state != 16:
+                continue
+            if getattr(sample, 'topic_name', '') == DISCOVERY_TOPIC:
+                out.add(bytes(sample.participant_key.bytes))
+        return out
+
+    def _take_node_info(self) -> None:
         if self._nodes_reader is not None:
             for data in self._nodes_reader.take():
                 info = messages.deserialize(data, DISCOVERY_TYPE)
                 self._node_info[bytes(bytearray(info.gid.data))] = info
+
+    def settle(self, timeout: float = 1.0) -> None:
+        """Wait (bounded) until every discovered ROS participant's ros_discovery_info has arrived.
+
+        Why: a participant is discovered before its (transient local) ros_discovery_info sample is
+        delivered, so an immediate query would miss its nodes.  ros2cli without a daemon waits too.
+        A fresh observer first gives discovery a moment (SPDP) to find the remote participants.
+        """
+        young = 0.3 - (time.monotonic() - self._created)
+        if young > 0:
+            time.sleep(young)
+        deadline = time.monotonic() + timeout
+        while True:
+            self._take_node_info()
+            if self._discovery_writers() <= set(self._node_info) or time.monotonic() >= deadline:
+                return
+            time.sleep(0.01)
+
+    def nodes(self) -> list[tuple[str, str]]:
+        """(namespace, name) of every node announced in ros_discovery_info by an alive participant."""
+        if self._nodes_reader is not None:
+            self.settle()
         alive = self.alive_participants()
         out = []
         for gid, info in self._node_info.items():

@@ -15,7 +15,7 @@ from cage_ros_runtime import arguments as _arguments
 
 if TYPE_CHECKING:
     from cage_ros_runtime.dds import Domain
-    from cage_ros_runtime.graph import GraphPublisher
+    from cage_ros_runtime.graph import GraphObserver, GraphPublisher
 
 
 def _domain_id_from_env() -> int:
@@ -41,6 +41,7 @@ class Context:
         self._domain_id: Optional[int] = None
         self._domain: Optional['Domain'] = None
         self._graph: Optional['GraphPublisher'] = None
+        self._observer: Optional['GraphObserver'] = None
         self._callbacks: List[Callable[[], None]] = []
         self._args = _arguments.RosArguments()
         self._argv: List[str] = []
@@ -129,7 +130,7 @@ class Context:
             except Exception:  # noqa: BLE001 - best effort at teardown
                 pass
         with self._lock:
-            domain, self._domain, self._graph = self._domain, None, None
+            domain, self._domain, self._graph, self._observer = self._domain, None, None, None
         if domain is not None:
             domain.close()
 
@@ -159,10 +160,17 @@ class Context:
                 raise NotInitializedException('the context is not initialized or already shut down')
             if self._domain is None:
                 from cage_ros_runtime.dds import Domain
-                from cage_ros_runtime.graph import GraphPublisher
+                from cage_ros_runtime.graph import GraphObserver, GraphPublisher
                 self._domain = Domain(self.get_domain_id())
                 self._graph = GraphPublisher(self._domain)
+                from cage_ros_runtime.graph import GraphObserver
+                self._observer = GraphObserver(self._domain.participant)
             return self._domain
+
+    def _graph_observer(self) -> 'GraphObserver':
+        """Discovery data of this context's participant (builtin topics and ros_discovery_info)."""
+        self._get_domain()
+        return self._observer
 
     def _graph_changed(self) -> None:
         """Republish ros_discovery_info after a node or endpoint was created or destroyed."""

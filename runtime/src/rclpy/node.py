@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 from cage_ros_runtime import arguments as _arguments
@@ -279,16 +280,49 @@ class Node:
         profile = qos_profile_from_depth_or_profile(qos_profile)
         ros_type = messages.type_of(msg_type)
         name = self.resolve_topic_name(topic)
+        wire = self._best_available_for_subscription(profile, name)
         from rclpy.qos import HistoryPolicy
         max_take = 256 if profile.history == HistoryPolicy.KEEP_ALL else max(profile.depth, 1)
         reader = RawReader.create(self._domain, dds_topic_name(name, profile.avoid_ros_namespace_conventions),
-                                  ros_type, endpoint_qos(profile, ros_type, writer=False), max_take)
+                                  ros_type, endpoint_qos(wire, ros_type, writer=False), max_take)
         sub = Subscription(self, msg_type, name, callback, profile, reader, raw=raw)
         self._subscriptions.append(sub)
         self._generation += 1
         self._context._graph_changed()  # noqa: SLF001
         self._wake_executor()
         return sub
+
+    def _best_available_for_subscription(self, profile: QoSProfile, topic: str) -> QoSProfile:
+        """Resolve BEST_AVAILABLE policies against the publishers discovered now, as rmw_dds_common's
+        qos_profile_get_best_available_for_subscription: reliable / transient local / manual-by-topic
+        only if every publisher offers it (with no publisher: the strongest)."""
+        from rclpy.qos import DurabilityPolicy, LivelinessPolicy, ReliabilityPolicy
+        policies = (profile.reliability == ReliabilityPolicy.BEST_AVAILABLE,
+                    profile.durability == DurabilityPolicy.BEST_AVAILABLE,
+                    profile.liveliness == LivelinessPolicy.BEST_AVAILABLE)
+        if not any(policies):
+            return profile
+        from cyclonedds.qos import Policy
+        offered = [e.qos for e in self._observer().endpoints()
+                   if e.kind == 'publisher' and e.topic == topic]
+
+        def every(test: Callable[[Any], bool]) -> bool:
+            return all(test(q) for q in offered)
+
+        resolved = copy.copy(profile)
+        if policies[0]:
+            resolved.reliability = ReliabilityPolicy.RELIABLE if every(
+                lambda q: isinstance(q[Policy.Reliability], Policy.Reliability.Reliable)) \
+                else ReliabilityPolicy.BEST_EFFORT
+        if policies[1]:
+            resolved.durability = DurabilityPolicy.TRANSIENT_LOCAL if every(
+                lambda q: q[Policy.Durability] == Policy.Durability.TransientLocal) \
+                else DurabilityPolicy.VOLATILE
+        if policies[2]:
+            resolved.liveliness = LivelinessPolicy.MANUAL_BY_TOPIC if offered and every(
+                lambda q: isinstance(q[Policy.Liveliness], Policy.Liveliness.ManualByTopic)) \
+                else LivelinessPolicy.AUTOMATIC
+        return resolved
 
     def create_timer(self, timer_period_sec: float, callback: Optional[Callable[[], Any]],
                      callback_group: Any = None, clock: Any = None, autostart: bool = True) -> Timer:
@@ -439,12 +473,8 @@ class Node:
 
     # ------------------------------------------------------------------ graph queries
     def _observer(self) -> Any:
-        observer = getattr(self, '_graph_observer', None)
-        if observer is None:
-            from cage_ros_runtime.graph import GraphObserver
-            observer = GraphObserver(self._domain.participant)
-            self._graph_observer = observer
-        return observer
+        """The context's graph observer (created with the participant, so it has been listening)."""
+        return self._context._graph_observer()  # noqa: SLF001
 
     def get_topic_names_and_types(self, no_demangle: bool = False) -> List[Tuple[str, List[str]]]:
         return sorted((t, sorted(types)) for t, types in self._observer().topics().items())
