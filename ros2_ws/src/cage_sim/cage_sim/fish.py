@@ -76,30 +76,42 @@ class FishState:
         return self.home + self._wander[:, None] * np.stack([np.cos(a), np.sin(a)], axis=1)
 
     def step(self, dt: float, vehicle_xy, substeps: int = 4) -> np.ndarray:
-        """Advance ``dt`` seconds with the vehicle at ``vehicle_xy``; returns the (K, 2) positions."""
+        """Advance ``dt`` seconds with the vehicle at ``vehicle_xy``; returns the (K, 2) positions.
+        Plain floats per school: a handful of schools, where NumPy's per-call cost would dominate."""
         if not len(self.schools) or dt <= 0:
             self.t += max(dt, 0.0)
             return self.pos
-        v = np.asarray(vehicle_xy, dtype=float)
+        vx, vy = float(vehicle_xy[0]), float(vehicle_xy[1])
         h = dt / substeps
-        for _ in range(substeps):
-            self.t += h
-            away = self.pos - v
-            dist = np.hypot(away[:, 0], away[:, 1])
-            edge = dist - self.radius
-            self.fleeing = (edge < self._flee_r) | (self.fleeing & (edge < CALM * self._flee_r))
-            flee = self.fleeing
-            u = away / np.maximum(dist, 1e-9)[:, None]
-            u[dist <= 1e-9] = (1.0, 0.0)
-            to = self.target(self.t) - self.pos
-            n = np.hypot(to[:, 0], to[:, 1])
-            back = np.minimum(n, self._ret_v * h) / np.maximum(n, 1e-9)
-            self.pos = self.pos + np.where(flee[:, None], self._flee_v[:, None] * h * u, back[:, None] * to)
-            # stay inside the net
-            r = np.hypot(self.pos[:, 0], self.pos[:, 1])
-            over = r > self._limit
-            if np.any(over):
-                self.pos[over] *= (self._limit[over] / r[over])[:, None]
+        pos = self.pos.tolist()
+        fleeing = self.fleeing.tolist()
+        for k, s in enumerate(self.schools):
+            x, y = pos[k]
+            hx, hy, ph, lim = self.home[k, 0], self.home[k, 1], self.phase[k], self._limit[k]
+            t = self.t
+            for _ in range(substeps):
+                t += h
+                ax, ay = x - vx, y - vy
+                dist = math.hypot(ax, ay)
+                edge = dist - s.radius
+                fleeing[k] = edge < s.flee_radius or (fleeing[k] and edge < CALM * s.flee_radius)
+                if fleeing[k]:
+                    ux, uy = (ax / dist, ay / dist) if dist > 1e-9 else (1.0, 0.0)
+                    x, y = x + s.flee_speed * h * ux, y + s.flee_speed * h * uy
+                else:
+                    a = ph + 2 * math.pi * t / s.wander_period
+                    tx, ty = hx + s.wander * math.cos(a) - x, hy + s.wander * math.sin(a) - y
+                    n = math.hypot(tx, ty)
+                    if n > 1e-9:
+                        f = min(n, s.return_speed * h) / n
+                        x, y = x + f * tx, y + f * ty
+                r = math.hypot(x, y)
+                if r > lim:                                   # stay inside the net
+                    x, y = x * lim / r, y * lim / r
+            pos[k] = [x, y]
+        self.t += dt
+        self.pos = np.array(pos, dtype=float).reshape(-1, 2)
+        self.fleeing = np.array(fleeing, dtype=bool)
         return self.pos
 
     def circles(self) -> np.ndarray:
