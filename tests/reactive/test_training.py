@@ -1,11 +1,18 @@
-"""Training: learns the 1D case, is deterministic under a seed, resumes; config overrides."""
+"""Training: learns the 1D case, is deterministic under a seed, resumes (alone, from its own
+config), refuses a used --out and bad files in one line; config overrides; the vector env speaks
+gymnasium's VectorEnv API."""
+import csv
+
+import gymnasium as gym
 import numpy as np
 import pytest
+import torch
+from cage_sim.vec_env import CageNavVecEnv
 from safetensors.torch import load_file
 
 from cage_reactive_ddpg import config as config_mod
 from cage_reactive_ddpg.study1d import evaluate_1d
-from cage_reactive_ddpg.train import Trainer
+from cage_reactive_ddpg.train import Trainer, main
 
 
 class RandomPolicy:
@@ -79,3 +86,117 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides={"reward.golden": 1})
     with pytest.raises(ValueError, match="batch_size: expected int"):
         config_mod.build(overrides=["batch_size=big"])
+
+
+def _cli_tiny(tiny):
+    """--set flags of a tiny study2d run."""
+    over = {**tiny, "scenario": "study2d", "n_envs": 4, "prefill_steps": 200, "eval_episodes": 5,
+            "checkpoint_every": 300, "tensorboard": True}
+    return [x for k, v in over.items() for x in ("--set", f"{k}={v}")]
+
+
+def _episodes(path):
+    with path.open() as f:
+        return [int(r["episode"]) for r in csv.DictReader(f)]
+
+
+def test_resume_alone_restores_config_and_whole_curve(tmp_path, tiny_overrides, capsys):
+    out = tmp_path / "run"
+    assert main(["--preset", "study", "--steps", "600", "--out", str(out), "--quiet", *_cli_tiny(tiny_overrides)]) == 0
+    first = _episodes(out / "episodes.csv")
+    # a fresh run into the used folder is refused in one line, exit 2; the run is untouched
+    assert main(["--preset", "study", "--steps", "600", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("train: ") and "not empty" in err and "--resume" in err and "\n" not in err
+    assert _episodes(out / "episodes.csv") == first
+    # --resume DIR alone (plus a larger budget): the checkpoint's own 32-32 nets, not the 400-300 defaults
+    assert main(["--resume", str(out), "--steps", "1000", "--quiet"]) == 0
+    state = torch.load(out / "checkpoint.pt", weights_only=True)
+    assert state["config"]["critic_hidden"] == [32, 32] and state["progress"]["step"] == 1000
+    eps = _episodes(out / "episodes.csv")
+    assert eps == list(range(1, len(eps) + 1)) and len(eps) > len(first)   # whole run, no gap, no repeat
+    assert len(state["evals"]) == 2                                           # both runs' evaluations
+    # --force starts over
+    assert main(["--preset", "study", "--steps", "300", "--out", str(out), "--quiet", "--force",
+                 *_cli_tiny(tiny_overrides)]) == 0
+    assert torch.load(out / "checkpoint.pt", weights_only=True)["progress"]["step"] == 300
+
+
+def test_tensorboard_x_axis_is_env_steps(tmp_path, tiny_overrides, monkeypatch):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    from cage_reactive_ddpg import train
+    monkeypatch.setattr(train, "LOG_EVERY", 400)
+    out = tmp_path / "tb"
+    assert main(["--preset", "study", "--steps", "600", "--out", str(out), "--quiet", *_cli_tiny(tiny_overrides)]) == 0
+    acc = EventAccumulator(str(out / "tb"))
+    acc.Reload()
+    tags = set(acc.Tags()["scalars"])
+    assert {"episode/reward", "episode/length", "episode/success", "time/fps", "train/noise_std",
+            "eval/goal", "hparam/goal"} <= tags
+    steps = [e.step for e in acc.Scalars("episode/reward")]
+    assert steps == sorted(steps) and 100 < steps[-1] <= 600   # env steps, not episode numbers
+    assert [e.step for e in acc.Scalars("time/fps")] == [400]
+
+
+@pytest.mark.parametrize("content,expect", [
+    (b"not a checkpoint", "not a trainer checkpoint"),
+    (None, "no such checkpoint"),
+])
+def test_bad_checkpoint_is_one_line(tmp_path, capsys, content, expect):
+    ck = tmp_path / "checkpoint.pt"
+    if content is not None:
+        ck.write_bytes(content)
+    assert main(["--resume", str(ck), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("train: ") and expect in err and "Traceback" not in err
+
+
+def test_bad_config_and_mismatched_checkpoint_are_one_line(tmp_path, tiny_overrides, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("batch_size: [1,\n")
+    assert main(["--config", str(bad), "--out", str(tmp_path / "x")]) == 2
+    assert "not valid YAML" in capsys.readouterr().err
+    out = tmp_path / "run"
+    assert main(["--preset", "study", "--steps", "300", "--out", str(out), "--quiet", *_cli_tiny(tiny_overrides)]) == 0
+    capsys.readouterr()
+    assert main(["--resume", str(out), "--set", "critic_hidden=[64, 64]", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "does not fit this trainer and config" in err
+
+
+def test_vec_env_is_a_gymnasium_vector_env():
+    from gymnasium.wrappers.vector import ClipAction, NormalizeObservation, RecordEpisodeStatistics
+    venv = CageNavVecEnv(3, "study2d", seed=1)
+    assert isinstance(venv, gym.vector.VectorEnv)
+    assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    assert venv.observation_space.shape == (3, *venv.single_observation_space.shape)
+    env = RecordEpisodeStatistics(ClipAction(venv))
+    obs, info = env.reset(seed=5)
+    assert obs.shape == venv.observation_space.shape and info["outcome"].tolist() == [None] * 3
+    ended = 0
+    for _ in range(150):
+        obs, rew, term, trunc, info = env.step(env.action_space.sample() * 0 + 2.0)   # clipped to 1
+        assert obs.shape == (3, venv.single_observation_space.shape[0]) and rew.shape == (3,)
+        done = term | trunc
+        if done.any():
+            assert (info["_final_obs"] == done).all() and (info["_episode"] == done).all()
+            for i in np.flatnonzero(done):
+                ended += 1
+                assert info["final_info"]["outcome"][i] in ("goal", "collision", "wander", "timeout")
+                assert info["final_info"]["is_success"][i] == (info["final_info"]["outcome"][i] == "goal")
+                assert info["episode"]["l"][i] == info["final_info"]["steps"][i]
+    assert ended >= 3
+    # reset(seed=...) fixes every env's episodes
+    a, _ = venv.reset(seed=11)
+    b, _ = venv.reset(seed=11)
+    assert np.array_equal(a, b)
+    # next_step mode: gymnasium's observation wrappers accept it; a done env restarts a step later
+    nxt = NormalizeObservation(CageNavVecEnv(2, "study2d", seed=1, autoreset_mode="next_step"))
+    nxt.reset(seed=2)
+    was_done = np.zeros(2, bool)
+    for _ in range(120):
+        obs, rew, term, trunc, info = nxt.step(np.full((2, 1), 1.0))
+        assert not (term | trunc)[was_done].any() and (rew[was_done] == 0).all()
+        was_done = term | trunc
+    assert np.isfinite(obs).all()

@@ -101,14 +101,14 @@ def test_study_motion_mode_differs_only_in_geometry():
 
 def test_vec_env_steps_and_autoresets():
     venv = CageNavVecEnv(4, "study2d", seed=3)
-    obs = venv.reset()
+    obs, _ = venv.reset()
     assert obs.shape == (4, 74) and obs.dtype == np.float32
     ctrl, finished = ArcController(), 0
     for _ in range(80):
         obs, rew, term, trunc, infos = venv.step(ctrl.act(obs)[:, 0])
         for i in np.flatnonzero(term | trunc):
             finished += 1
-            assert infos["final_info"][int(i)]["outcome"] in ("goal", "collision", "wander", "timeout")
+            assert infos["final_info"]["outcome"][i] in ("goal", "collision", "wander", "timeout")
     assert finished >= 4
 
 
@@ -116,7 +116,7 @@ def test_vec_env_obs_equal_single_env_obs():
     sc = generate_cage(np.random.default_rng(4))
     venv = CageNavVecEnv(2, sc, seed=0)
     env = CageNavEnv(sc)
-    o1 = venv.reset()
+    o1, _ = venv.reset()
     o2, _ = env.reset(seed=0)
     assert np.array_equal(o1[0], o2)
     o1, *_ = venv.step(np.array([0.3, 0.3]))

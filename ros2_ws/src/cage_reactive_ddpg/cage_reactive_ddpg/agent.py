@@ -15,7 +15,7 @@ from torch import nn
 
 from .buffer import Batch
 from .config import TrainConfig
-from .networks import Actor, Critic
+from .networks import Actor, CriticEnsemble
 
 
 class OUNoise:
@@ -44,26 +44,28 @@ class GaussianNoise:
         pass
 
 
-def soft_update(target: nn.Module, source: nn.Module, tau: float) -> None:
-    with torch.no_grad():
-        torch._foreach_lerp_(list(target.parameters()), list(source.parameters()), tau)
-        for t, s in zip(target.buffers(), source.buffers()):
-            t.copy_(s)
-
-
 class DDPGAgent:
+    """Actor, critic ensemble (1 = DDPG, 2 = TD3's twins), their targets and optimisers.
+
+    Speed (``benchmarks/bench_train.py``): the critics are one module (one batched matmul per layer
+    for the online pair and one for the target pair), Adam is fused (one pass over each network's
+    parameters), the actor's loss goes through detached critic weights instead of toggling
+    ``requires_grad``, soft updates are one ``_foreach_lerp_`` over prebuilt lists, and the losses
+    stay tensors (``update`` returns them; the caller calls ``float`` only when it logs).
+    """
+
     def __init__(self, cfg: TrainConfig, obs_dim: int, act_dim: int = 1):
         self.cfg = cfg
         self.actor = Actor(obs_dim, cfg.actor_hidden, act_dim)
-        n_critics = 2 if cfg.twin_critic else 1
-        self.critics = nn.ModuleList([Critic(obs_dim, cfg.critic_hidden, act_dim) for _ in range(n_critics)])
+        self.critic = CriticEnsemble(obs_dim, cfg.critic_hidden, act_dim, n=2 if cfg.twin_critic else 1)
         self.actor_target = copy.deepcopy(self.actor)
-        self.critics_target = copy.deepcopy(self.critics)
-        for p in list(self.actor_target.parameters()) + list(self.critics_target.parameters()):
+        self.critic_target = copy.deepcopy(self.critic)
+        for p in list(self.actor_target.parameters()) + list(self.critic_target.parameters()):
             p.requires_grad_(False)
-        # foreach: one kernel per step for all tensors (on CPU PyTorch defaults to a Python loop).
-        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor, foreach=True)
-        self.critic_opt = torch.optim.Adam(self.critics.parameters(), lr=cfg.lr_critic, foreach=True)
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr_actor, fused=True)
+        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_critic, fused=True)
+        self._pairs = [(list(t.parameters()), list(s.parameters()))
+                       for t, s in ((self.actor_target, self.actor), (self.critic_target, self.critic))]
         self.n_updates = 0
 
     # --- acting ---------------------------------------------------------------------------
@@ -77,11 +79,13 @@ class DDPGAgent:
             return
         self.actor.norm.update(torch.as_tensor(obs, dtype=torch.float32))
         state = self.actor.norm.state_dict()
-        for net in [*self.critics, self.actor_target, *self.critics_target]:
+        for net in (self.critic, self.actor_target, self.critic_target):
             net.norm.load_state_dict(state)
 
     # --- learning -------------------------------------------------------------------------
-    def update(self, b: Batch) -> dict[str, float]:
+    def update(self, b: Batch) -> dict[str, torch.Tensor]:
+        """One critic step (and, every ``policy_delay``, an actor step and soft target updates).
+        Returns detached loss tensors: ``float()`` them only when logging."""
         cfg = self.cfg
         obs, act = torch.from_numpy(b.obs), torch.from_numpy(b.act)
         rew, nxt, disc = torch.from_numpy(b.rew), torch.from_numpy(b.next_obs), torch.from_numpy(b.discount)
@@ -90,46 +94,51 @@ class DDPGAgent:
             if cfg.target_noise > 0:
                 eps = (torch.randn_like(a2) * cfg.target_noise).clamp(-cfg.target_noise_clip, cfg.target_noise_clip)
                 a2 = (a2 + eps).clamp(-1.0, 1.0)
-            q2 = torch.stack([c(nxt, a2) for c in self.critics_target]).min(0).values
-            target = rew + disc * q2
-        qs = [c(obs, act) for c in self.critics]
-        critic_loss = sum(((q - target) ** 2).mean() for q in qs)
+            q2 = self.critic_target(nxt, a2)
+            target = rew + disc * (q2[0] if q2.shape[0] == 1 else q2.min(0).values)
+        q = self.critic(obs, act)                           # (n_critics, batch)
+        critic_loss = (q - target).pow(2).mean(1).sum()     # each critic's MSE, summed
         self.critic_opt.zero_grad(set_to_none=True)
         critic_loss.backward()
         if cfg.grad_clip > 0:
-            nn.utils.clip_grad_norm_(self.critics.parameters(), cfg.grad_clip)
+            nn.utils.clip_grad_norm_(self.critic.parameters(), cfg.grad_clip)
         self.critic_opt.step()
         self.n_updates += 1
-        info = {"critic_loss": critic_loss.item(), "q": qs[0].detach().mean().item()}
+        info = {"critic_loss": critic_loss.detach(), "q": q[0].detach().mean()}
         if self.n_updates % cfg.policy_delay == 0:
-            for p in self.critics.parameters():
-                p.requires_grad_(False)
-            actor_loss = -self.critics[0](obs, self.actor(obs)).mean()
+            actor_loss = -self.critic(obs, self.actor(obs), members=1, frozen=True).mean()
             self.actor_opt.zero_grad(set_to_none=True)
             actor_loss.backward()
             if cfg.grad_clip > 0:
                 nn.utils.clip_grad_norm_(self.actor.parameters(), cfg.grad_clip)
             self.actor_opt.step()
-            for p in self.critics.parameters():
-                p.requires_grad_(True)
-            soft_update(self.actor_target, self.actor, cfg.tau)
-            soft_update(self.critics_target, self.critics, cfg.tau)
-            info["actor_loss"] = actor_loss.item()
+            self.soft_update()
+            info["actor_loss"] = actor_loss.detach()
         return info
+
+    @torch.no_grad()
+    def soft_update(self) -> None:
+        """target <- (1 - tau) target + tau online, all tensors in one foreach call per network."""
+        for tgt, src in self._pairs:
+            torch._foreach_lerp_(tgt, src, self.cfg.tau)
+        if self.cfg.obs_norm:
+            for t, s in ((self.actor_target, self.actor), (self.critic_target, self.critic)):
+                for tb, sb in zip(t.buffers(), s.buffers()):
+                    tb.copy_(sb)
 
     # --- persistence ----------------------------------------------------------------------
     def state_dict(self) -> dict:
-        return {"actor": self.actor.state_dict(), "critics": self.critics.state_dict(),
+        return {"actor": self.actor.state_dict(), "critic": self.critic.state_dict(),
                 "actor_target": self.actor_target.state_dict(),
-                "critics_target": self.critics_target.state_dict(),
+                "critic_target": self.critic_target.state_dict(),
                 "actor_opt": self.actor_opt.state_dict(), "critic_opt": self.critic_opt.state_dict(),
                 "n_updates": self.n_updates}
 
     def load_state_dict(self, s: dict) -> None:
         self.actor.load_state_dict(s["actor"])
-        self.critics.load_state_dict(s["critics"])
+        self.critic.load_state_dict(s["critic"])
         self.actor_target.load_state_dict(s["actor_target"])
-        self.critics_target.load_state_dict(s["critics_target"])
+        self.critic_target.load_state_dict(s["critic_target"])
         self.actor_opt.load_state_dict(s["actor_opt"])
         self.critic_opt.load_state_dict(s["critic_opt"])
         self.n_updates = int(s["n_updates"])

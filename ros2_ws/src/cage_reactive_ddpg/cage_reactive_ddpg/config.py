@@ -121,7 +121,7 @@ PRESETS["rrt"] = {**PRESETS["fast"], "planner": "rrt"}
 
 def _coerce(name: str, value: Any, current: Any) -> Any:
     """Parse a CLI string to the type of the field it overrides (YAML syntax: 1e-3, [64, 64], true)."""
-    if isinstance(value, str):
+    if isinstance(value, str) and not isinstance(current, str):   # a str field keeps "" and "None"
         value = yaml.safe_load(value)
     if isinstance(current, bool):
         if not isinstance(value, bool):
@@ -156,12 +156,16 @@ def apply(cfg: TrainConfig, updates: dict[str, Any]) -> TrainConfig:
 
 
 def build(preset: str | None = None, file: str | Path | None = None,
-          overrides: list[str] | dict | None = None) -> TrainConfig:
-    """Defaults < preset < YAML file < overrides (``key=value`` strings or a dict)."""
-    cfg = TrainConfig()
+          overrides: list[str] | dict | None = None, base: TrainConfig | None = None) -> TrainConfig:
+    """Defaults (or ``base``, e.g. a checkpoint's config) < preset < YAML file < overrides
+    (``key=value`` strings or a dict)."""
+    cfg = dataclasses.replace(base) if base is not None else TrainConfig()
     data: dict[str, Any] = {}
     if file:
-        data = yaml.safe_load(Path(file).read_text()) or {}
+        try:
+            data = yaml.safe_load(Path(file).read_text()) or {}
+        except yaml.YAMLError as err:
+            raise ValueError(f"{file}: not valid YAML ({' '.join(str(err).split())})") from None
         if not isinstance(data, dict):
             raise ValueError(f"{file}: expected a mapping of config keys")
     preset = preset or data.pop("preset", None)

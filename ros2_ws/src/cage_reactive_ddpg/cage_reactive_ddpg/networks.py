@@ -4,8 +4,9 @@ Why one module: a policy file is only a state dict plus sizes; whoever loads it 
 the same modules, so the modules live here and nowhere else.
 
 Actor: obs -> MLP (ReLU) -> tanh, an action in [-1, 1] (the vehicle scales it to +-max_turn).
-Critic: [obs, action] -> MLP (ReLU) -> Q (linear). Both carry an ``ObsNormalizer`` (identity unless
-observation normalisation is switched on) so a saved actor normalises its inputs by itself.
+CriticEnsemble: n critics [obs, action] -> MLP (ReLU) -> Q (linear), one batched matmul per layer.
+Both carry an ``ObsNormalizer`` (identity unless observation normalisation is switched on) so a saved
+actor normalises its inputs by itself.
 """
 from __future__ import annotations
 
@@ -71,16 +72,40 @@ class Actor(nn.Module):
         return torch.tanh(self.net(self.norm(obs)))
 
 
-class Critic(nn.Module):
-    """Q(s, a); the action joins the observation at the input."""
+class CriticEnsemble(nn.Module):
+    """``n`` critics Q_k(s, a) in one module: each layer is one batched matmul over the members.
 
-    def __init__(self, obs_dim: int, hidden: Sequence[int] = (400, 300), act_dim: int = 1):
+    Why: TD3's twin critics (and the target pair) cost one kernel per layer instead of two, and the
+    trainer makes one Python call per critic pass. With ``n = 1`` it is the study's single critic.
+    Each member is initialised like ``nn.Linear`` (uniform +-1/sqrt(fan_in)), the last layer small
+    (+-3e-3, the DDPG paper). ``forward`` returns shape (n, batch).
+    """
+
+    def __init__(self, obs_dim: int, hidden: Sequence[int] = (400, 300), act_dim: int = 1, n: int = 1):
         super().__init__()
-        self.hidden = tuple(int(h) for h in hidden)
+        self.n, self.hidden = int(n), tuple(int(h) for h in hidden)
         self.norm = ObsNormalizer(obs_dim)
-        self.net = mlp(obs_dim + act_dim, self.hidden, 1)
-        nn.init.uniform_(self.net[-1].weight, -3e-3, 3e-3)
-        nn.init.uniform_(self.net[-1].bias, -3e-3, 3e-3)
+        dims = [obs_dim + act_dim, *self.hidden, 1]
+        self.weights = nn.ParameterList()
+        self.biases = nn.ParameterList()
+        for i, (d_in, d_out) in enumerate(zip(dims[:-1], dims[1:])):
+            bound = 3e-3 if i == len(dims) - 2 else 1.0 / d_in ** 0.5
+            self.weights.append(nn.Parameter(torch.empty(self.n, d_in, d_out).uniform_(-bound, bound)))
+            self.biases.append(nn.Parameter(torch.empty(self.n, 1, d_out).uniform_(-bound, bound)))
 
-    def forward(self, obs: torch.Tensor, act: torch.Tensor) -> torch.Tensor:
-        return self.net(torch.cat([self.norm(obs), act], dim=-1)).squeeze(-1)
+    def forward(self, obs: torch.Tensor, act: torch.Tensor, members: int | None = None,
+                frozen: bool = False) -> torch.Tensor:
+        """Q of the first ``members`` critics (all by default); ``frozen`` detaches the weights so
+        the actor's loss reaches the action without computing critic weight gradients."""
+        k = self.n if members is None else members
+        x = torch.cat([self.norm(obs), act], dim=-1)
+        h = None
+        last = len(self.weights) - 1
+        for i, (w, b) in enumerate(zip(self.weights, self.biases)):
+            w, b = w[:k], b[:k]
+            if frozen:
+                w, b = w.detach(), b.detach()
+            h = torch.matmul(x, w) + b if h is None else torch.baddbmm(b, h, w)
+            if i < last:
+                h = torch.relu(h)
+        return h.squeeze(-1)

@@ -3,24 +3,32 @@
   train --preset study --episodes 3000 --out runs/study            # the study's DDPG, shortened
   train --preset fast --out runs/fast --set total_steps=600000      # ours
   train --config config/shipped.yaml --out runs/ship                # what the shipped policy ran
+  train --resume runs/ship                                          # continue it (its own config)
+  train --resume runs/ship --steps 1200000                          # ... with a larger budget
+  train --config config/shipped.yaml --seeds 5 --out runs/ship5     # five seeds (on Ray if installed)
 
 Writes to ``--out``: policy.safetensors + policy.json (the final actor), best.safetensors/.json (best
-periodic evaluation), episodes.csv, learning_curve.png, tb/ (TensorBoard), checkpoint.pt +
-buffer.npz (``--resume``; missions in flight at the checkpoint restart from a fresh episode).
+periodic evaluation), episodes.csv and learning_curve.png (the whole run, across resumes), tb/
+(TensorBoard, x-axis = env steps), config.yaml, checkpoint.pt + buffer.npz (``--resume``: the
+checkpoint carries the config, the counters, every RNG and the evaluations; missions in flight at the
+checkpoint restart from a fresh episode). A non-empty ``--out`` is refused unless ``--resume`` or
+``--force`` (which deletes the previous run's files first).
 """
 from __future__ import annotations
 
 import argparse
 import csv
 import shlex
+import shutil
 import sys
 import time
 from collections import deque
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 import torch
-from cage_sim.env import CageNavVecEnv
+from cage_sim.vec_env import CageNavVecEnv, finished
 from tqdm import tqdm
 
 from . import config as config_mod
@@ -33,6 +41,55 @@ from .policy import save_policy
 from .study1d import STUDY1D, Study1DVecEnv, evaluate_1d
 
 EVAL_SEED = 987_654      # evaluation episodes during training (disjoint from the reported seeds)
+CSV_FIELDS = ["episode", "step", "reward", "length", "outcome", "success", "seconds"]
+ARTIFACTS = ("policy.safetensors", "policy.json", "best.safetensors", "best.json", "episodes.csv",
+             "learning_curve.png", "tb", "checkpoint.pt", "buffer.npz", "config.yaml")
+LOG_EVERY = 2000         # env steps between TensorBoard's rollout/time/train scalars
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be resumed; the message (one line) says why."""
+
+
+def _one_line(err: BaseException) -> str:
+    """``Type: first sentence`` of an error, on one line (torch's messages run to paragraphs)."""
+    text = " ".join(str(err).split()).split(". ")[0]
+    return f"{type(err).__name__}: {text[:200]}" if text else type(err).__name__
+
+
+def checkpoint_path(path: str | Path) -> Path:
+    """``runs/x`` or ``runs/x/checkpoint.pt`` -> the checkpoint file."""
+    p = Path(path)
+    return p / "checkpoint.pt" if p.is_dir() else p
+
+
+def read_checkpoint(path: str | Path) -> dict:
+    """Load a checkpoint with ``weights_only=True`` (no pickled code runs); any problem is one
+    ``CheckpointError`` line naming the file."""
+    p = checkpoint_path(path)
+    if not p.exists():
+        raise CheckpointError(f"{p}: no such checkpoint (give the run's folder or its checkpoint.pt)")
+    try:
+        state = torch.load(p, weights_only=True, map_location="cpu")
+    except Exception as err:   # torch raises many types here (pickle, zip, OS, Runtime errors)
+        raise CheckpointError(f"{p}: not a trainer checkpoint ({_one_line(err)})") from None
+    missing = [k for k in ("agent", "config", "progress", "rng") if not isinstance(state, dict) or k not in state]
+    if missing:
+        raise CheckpointError(f"{p}: not a trainer checkpoint (missing {', '.join(missing)})")
+    return state
+
+
+def _reset(envs) -> np.ndarray:
+    """gymnasium's ``(obs, infos)`` or a bare observation array (Study1DVecEnv)."""
+    out = envs.reset()
+    return out[0] if isinstance(out, tuple) else out
+
+
+def _success(infos: dict, i: int) -> bool:
+    fi = infos.get("final_info")
+    if isinstance(fi, dict) and "is_success" in fi:
+        return bool(fi["is_success"][i])
+    return infos["outcome"][i] == "goal"
 
 
 class ActorPolicy:
@@ -46,9 +103,14 @@ class ActorPolicy:
 
 
 class Trainer:
-    def __init__(self, cfg: TrainConfig, out: Path, command: str = "", progress: bool = True):
-        self.cfg, self.out, self.command, self.progress = cfg, out, command, progress
-        out.mkdir(parents=True, exist_ok=True)
+    """One training run into ``out``. ``on_eval(summary)`` is called after every evaluation (the
+    sweep reports to Ray Tune from it); ``eval_seed`` fixes the evaluation episodes."""
+
+    def __init__(self, cfg: TrainConfig, out: Path, command: str = "", progress: bool = True,
+                 eval_seed: int = EVAL_SEED, on_eval: Callable[[dict], None] | None = None):
+        self.cfg, self.out, self.command, self.progress = cfg, Path(out), command, progress
+        self.eval_seed, self.on_eval = eval_seed, on_eval
+        self.out.mkdir(parents=True, exist_ok=True)
         torch.manual_seed(cfg.seed)
         torch.set_num_threads(cfg.threads)
         self.rng = np.random.default_rng(cfg.seed)
@@ -59,7 +121,7 @@ class Trainer:
             obs_dim = 1
         else:
             self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed)
-            obs_dim = self.env_cfg.layout.size
+            obs_dim = int(self.envs.single_observation_space.shape[0])
         self.agent = DDPGAgent(cfg, obs_dim)
         self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim)
         self.folder = NStepFolder(cfg.n_envs, cfg.n_step, cfg.gamma)
@@ -70,6 +132,7 @@ class Trainer:
         self.best = -np.inf
         self.evals: list[dict] = []
         self.rows: list[dict] = []
+        self.resumed = False
 
     # --- budget ---------------------------------------------------------------------------
     def progress_fraction(self) -> float:
@@ -94,19 +157,24 @@ class Trainer:
     def run(self) -> dict:
         c = self.cfg
         writer = self._writer()
-        csv_file = (self.out / "episodes.csv").open("a", newline="")
-        log = csv.DictWriter(csv_file, ["episode", "step", "reward", "length", "outcome", "seconds"])
-        if csv_file.tell() == 0:
-            log.writeheader()
-        obs = self.envs.reset()
+        # The CSV is rewritten from the rows the checkpoint covers, so a resume neither drops the
+        # earlier episodes nor repeats the ones logged after the last checkpoint.
+        csv_file = (self.out / "episodes.csv").open("w", newline="")
+        log = csv.DictWriter(csv_file, CSV_FIELDS, extrasaction="ignore")
+        log.writeheader()
+        log.writerows(self.rows)
+        obs = _reset(self.envs)
         ep_ret, ep_len = np.zeros(c.n_envs), np.zeros(c.n_envs, int)
-        recent = deque(maxlen=c.moving_average)
+        recent = deque(self.rows[-c.moving_average:], maxlen=c.moving_average)
         pending = 0.0
+        info: dict[str, Any] = {}
         total = c.total_steps if c.total_steps > 0 else c.episodes
         bar = tqdm(total=total, initial=self.step if c.total_steps > 0 else self.episodes,
                    unit="step" if c.total_steps > 0 else "ep", disable=not self.progress, smoothing=0.05,
                    mininterval=1.0 if sys.stderr.isatty() else 30.0)
-        t0, next_eval, next_ckpt = time.time() - self.train_seconds, self._next(c.eval_every), self._next(c.checkpoint_every)
+        t0 = time.time() - self.train_seconds
+        next_eval, next_ckpt, next_log = self._next(c.eval_every), self._next(c.checkpoint_every), self._next(LOG_EVERY)
+        fps_mark = (self.step, time.time())
         while self.progress_fraction() < 1.0:
             self.agent.observe(obs)
             if self.prefilling():
@@ -115,7 +183,7 @@ class Trainer:
                 act = np.clip(self.agent.act(obs) + self.noise(self.noise_std()), -1.0, 1.0)
             nxt, rew, term, trunc, infos = self.envs.step(act)
             real_next = nxt.copy()
-            for i, o in infos.get("final_obs", {}).items():
+            for i, o in finished(infos):
                 real_next[i] = o
             ep_ret += rew
             ep_len += 1
@@ -127,12 +195,14 @@ class Trainer:
                     self.episodes += 1
                     row = {"episode": self.episodes, "step": self.step + c.n_envs, "reward": round(float(ep_ret[i]), 3),
                            "length": int(ep_len[i]), "outcome": infos["outcome"][i],
-                           "seconds": round(time.time() - t0, 2)}
+                           "success": int(_success(infos, i)), "seconds": round(time.time() - t0, 2)}
                     self.rows.append(row)
                     log.writerow(row)
                     recent.append(row)
-                    writer and writer.add_scalar("episode/reward", row["reward"], self.episodes)
-                    writer and writer.add_scalar("episode/goal", row["outcome"] == "goal", self.episodes)
+                    if writer:
+                        writer.add_scalar("episode/reward", row["reward"], row["step"])
+                        writer.add_scalar("episode/length", row["length"], row["step"])
+                        writer.add_scalar("episode/success", row["success"], row["step"])
                     ep_ret[i], ep_len[i] = 0.0, 0
                     self.noise.reset(i)
                     if c.total_steps <= 0:
@@ -147,12 +217,15 @@ class Trainer:
                     info = self.agent.update(self.buffer.sample(self.rng, c.batch_size))
                     self.updates += 1
                     pending -= 1.0
-                if writer and self.updates % 1000 < max(1, c.updates_per_step * c.n_envs):
-                    for k, v in info.items():
-                        writer.add_scalar(f"train/{k}", v, self.step)
+            if self.step >= next_log:
+                now = time.time()
+                fps = (self.step - fps_mark[0]) / max(now - fps_mark[1], 1e-9)
+                fps_mark, next_log = (self.step, now), next_log + LOG_EVERY
+                if writer:
+                    self._log_rollout(writer, recent, info, fps)
             if recent and self.episodes % 10 == 0:
                 bar.set_postfix(reward=f"{np.mean([r['reward'] for r in recent]):.1f}",
-                                goal=f"{np.mean([r['outcome'] == 'goal' for r in recent]):.0%}",
+                                goal=f"{np.mean([r['success'] for r in recent]):.0%}",
                                 buf=self.buffer.size, refresh=False)
             if next_eval and self.step >= next_eval:
                 self.train_seconds = time.time() - t0
@@ -160,6 +233,7 @@ class Trainer:
                 next_eval += c.eval_every
             if next_ckpt and self.step >= next_ckpt:
                 self.train_seconds = time.time() - t0
+                csv_file.flush()
                 self.save_checkpoint()
                 next_ckpt += c.checkpoint_every
         bar.close()
@@ -170,6 +244,7 @@ class Trainer:
         self._save("policy", final)
         self.plot_curve()
         if writer:
+            self._log_hparams(writer, final)
             writer.close()
         return final
 
@@ -180,16 +255,36 @@ class Trainer:
         if not self.cfg.tensorboard:
             return None
         from torch.utils.tensorboard import SummaryWriter
-        return SummaryWriter(str(self.out / "tb"))
+        # After a resume, events past the checkpoint's step (written before a crash) are purged.
+        return SummaryWriter(str(self.out / "tb"), purge_step=self.step + 1 if self.resumed else None)
+
+    def _log_rollout(self, writer, recent: deque, info: dict, fps: float) -> None:
+        s = self.step
+        writer.add_scalar("time/fps", fps, s)
+        writer.add_scalar("time/updates", self.updates, s)
+        writer.add_scalar("train/noise_std", 0.0 if self.prefilling() else self.noise_std(), s)
+        writer.add_scalar("train/buffer_size", self.buffer.size, s)
+        for k, v in info.items():
+            writer.add_scalar(f"train/{k}", float(v), s)
+        if recent:
+            writer.add_scalar("rollout/success_rate", float(np.mean([r["success"] for r in recent])), s)
+            writer.add_scalar("rollout/ep_rew_mean", float(np.mean([r["reward"] for r in recent])), s)
+            writer.add_scalar("rollout/ep_len_mean", float(np.mean([r["length"] for r in recent])), s)
+
+    def _log_hparams(self, writer, final: dict) -> None:
+        hp = {k: (v if isinstance(v, (int, float, str, bool)) else str(v)) for k, v in self.cfg.to_dict().items()}
+        metrics = {f"hparam/{o}": float(r) for o, r in final.get("rates", {}).items()}
+        writer.add_hparams(hp, metrics or {"hparam/episodes": float(self.episodes)}, run_name=".",
+                           global_step=self.step)
 
     # --- evaluation and saving ------------------------------------------------------------
     def _evaluate(self, writer) -> dict:
         c = self.cfg
         spec = c.eval_scenario or parse_mix(c.scenario)[0][0]
         if spec == STUDY1D:
-            s = evaluate_1d(ActorPolicy(self.agent), c.eval_episodes, EVAL_SEED)
+            s = evaluate_1d(ActorPolicy(self.agent), c.eval_episodes, self.eval_seed)
         else:
-            scs = episode_scenarios(spec, c.eval_episodes, EVAL_SEED, self.wp_fn)
+            scs = episode_scenarios(spec, c.eval_episodes, self.eval_seed, self.wp_fn)
             s = summarize(run_missions(ActorPolicy(self.agent), scs, self.env_cfg))
         s.update(scenario=spec, step=self.step, episodes_trained=self.episodes, seconds=round(self.train_seconds, 1))
         self.evals.append(s)
@@ -202,6 +297,8 @@ class Trainer:
         if score >= self.best:      # ties: the later policy has seen more
             self.best = score
             self._save("best", s)
+        if self.on_eval is not None:
+            self.on_eval(s)
         return s
 
     def _save(self, name: str, evaluation: dict) -> None:
@@ -219,26 +316,41 @@ class Trainer:
         state = {"agent": self.agent.state_dict(), "config": self.cfg.to_dict(),
                  "progress": {"step": self.step, "episodes": self.episodes, "updates": self.updates,
                               "seconds": self.train_seconds, "best": float(self.best)},
+                 "evals": _plain(self.evals),
                  "rng": self.rng.bit_generator.state,
                  "env_rngs": [r.bit_generator.state for r in self.envs.rngs],
                  "torch_rng": torch.get_rng_state()}
-        torch.save(state, self.out / "checkpoint.pt")
+        tmp = self.out / "checkpoint.pt.tmp"
+        torch.save(state, tmp)
+        tmp.replace(self.out / "checkpoint.pt")      # never a half-written checkpoint
         np.savez(self.out / "buffer.npz", **self.buffer.state())
 
-    def load_checkpoint(self, path: Path) -> None:
-        s = torch.load(path, weights_only=True)
-        self.agent.load_state_dict(s["agent"])
-        p = s["progress"]
-        self.step, self.episodes, self.updates = p["step"], p["episodes"], p["updates"]
-        self.train_seconds, self.best = p["seconds"], p["best"]
-        self.rng.bit_generator.state = s["rng"]
-        for r, st in zip(self.envs.rngs, s["env_rngs"]):
-            r.bit_generator.state = st
-        torch.set_rng_state(s["torch_rng"])
-        buf = path.parent / "buffer.npz"
+    def load_checkpoint(self, path: str | Path, state: dict | None = None) -> None:
+        """Restore a checkpoint (read with ``read_checkpoint`` unless ``state`` is given) and the
+        episode rows of its run's episodes.csv up to the checkpoint. Problems: ``CheckpointError``."""
+        p = checkpoint_path(path)
+        s = state if state is not None else read_checkpoint(p)
+        try:
+            self.agent.load_state_dict(s["agent"])
+            pr = s["progress"]
+            self.step, self.episodes, self.updates = int(pr["step"]), int(pr["episodes"]), int(pr["updates"])
+            self.train_seconds, self.best = float(pr["seconds"]), float(pr["best"])
+            self.rng.bit_generator.state = s["rng"]
+            for r, st in zip(self.envs.rngs, s["env_rngs"]):
+                r.bit_generator.state = st
+            torch.set_rng_state(s["torch_rng"])
+        except (KeyError, RuntimeError, ValueError, TypeError) as err:
+            raise CheckpointError(f"{p}: does not fit this trainer and config ({_one_line(err)})") from None
+        self.evals = list(s.get("evals", []))
+        buf = p.parent / "buffer.npz"
         if buf.is_file():
-            with np.load(buf) as z:
-                self.buffer.load_state(dict(z))
+            try:
+                with np.load(buf) as z:
+                    self.buffer.load_state(dict(z))
+            except Exception as err:   # zip/pickle/shape errors of a damaged file
+                raise CheckpointError(f"{buf}: unreadable replay buffer ({_one_line(err)})") from None
+        self.rows = read_rows(p.parent / "episodes.csv", self.episodes)
+        self.resumed = True
 
     def plot_curve(self) -> None:
         """Episode reward, its moving average and the overall running average (the study's figures)."""
@@ -263,6 +375,37 @@ class Trainer:
         plt.close(fig)
 
 
+def _plain(x: Any) -> Any:
+    """Evaluations as plain Python (what ``torch.load(weights_only=True)`` accepts)."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, (np.floating, np.integer, np.bool_)):
+        return x.item()
+    return x
+
+
+def read_rows(path: Path, up_to: int) -> list[dict]:
+    """The episode rows of a run's CSV up to episode ``up_to`` (a missing file: none)."""
+    if not path.is_file():
+        return []
+    rows = []
+    with path.open(newline="") as f:
+        for r in csv.DictReader(f):
+            try:
+                ep = int(r["episode"])
+                if ep > up_to:
+                    break
+                rows.append({"episode": ep, "step": int(r["step"]), "reward": float(r["reward"]),
+                             "length": int(r["length"]), "outcome": r["outcome"],
+                             "success": int(r.get("success") or r["outcome"] == "goal"),
+                             "seconds": float(r["seconds"])})
+            except (KeyError, TypeError, ValueError) as err:
+                raise CheckpointError(f"{path}: unreadable episode row ({_one_line(err)})") from None
+    return rows
+
+
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--config", help="YAML file of config keys (may name a preset)")
@@ -272,14 +415,19 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--steps", type=int, help="env-step budget")
     ap.add_argument("--seed", type=int)
     ap.add_argument("--threads", type=int)
-    ap.add_argument("--out", default="runs/ddpg")
-    ap.add_argument("--resume", help="checkpoint.pt to continue from")
+    ap.add_argument("--out", help="run folder (default runs/ddpg; with --resume: the checkpoint's folder)")
+    ap.add_argument("--resume", help="run folder or checkpoint.pt to continue (its own config; flags override)")
+    ap.add_argument("--force", action="store_true", help="start over in a non-empty --out (deletes its run files)")
+    ap.add_argument("--seeds", type=int, default=0,
+                    help="train N seeds (seed, seed+1, ...) into OUT/seed_K and aggregate them (Ray when installed)")
+    ap.add_argument("--no-ray", action="store_true", help="with --seeds: one after another even if Ray is installed")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override any config key")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     return ap.parse_args(argv)
 
 
-def config_from_args(a: argparse.Namespace) -> TrainConfig:
+def config_from_args(a: argparse.Namespace, base: TrainConfig | None = None) -> TrainConfig:
+    """Defaults (or a checkpoint's config) < preset < --config < --set < the named flags."""
     over: dict = {}
     if a.scenario:
         over["scenario"] = a.scenario
@@ -291,19 +439,56 @@ def config_from_args(a: argparse.Namespace) -> TrainConfig:
         over["seed"] = a.seed
     if a.threads is not None:
         over["threads"] = a.threads
-    cfg = config_mod.build(a.preset, a.config, a.set)
+    cfg = config_mod.build(a.preset, a.config, a.set, base=base)
     return config_mod.apply(cfg, over).validate()
+
+
+def prepare_out(out: Path, force: bool) -> None:
+    """Refuse a non-empty run folder (a fresh run would mix its files with another's) unless
+    ``force``, which deletes the trainer's own files there (and nothing else)."""
+    if not out.is_dir() or not any(out.iterdir()):
+        return
+    if not force:
+        raise FileExistsError(f"{out} is not empty: --resume {out} continues that run, --force starts over in it")
+    for name in ARTIFACTS:
+        p = out / name
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
 
 
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     command = "train " + " ".join(shlex.quote(x) for x in (sys.argv[1:] if argv is None else argv))
-    out = Path(a.out)
-    try:   # bad config keys, scenario names or files, checkpoints: one clear line, no traceback
-        cfg = config_from_args(a)
+    try:   # bad config keys, scenario names or files, checkpoints, a used --out: one clear line
+        if a.seeds:
+            if a.resume:
+                raise ValueError("--seeds and --resume: resume each seed's folder on its own")
+            from .seeds import train_seeds
+            out = Path(a.out or "runs/ddpg")
+            prepare_out(out, a.force)
+            return train_seeds(config_from_args(a), out, a.seeds, command, use_ray=not a.no_ray,
+                               progress=not a.quiet)
+        state = None
+        if a.resume:
+            ck = checkpoint_path(a.resume)
+            state = read_checkpoint(ck)
+            try:
+                base = config_mod.from_dict(state["config"])
+            except (ValueError, TypeError) as err:
+                raise CheckpointError(f"{ck}: its config does not fit this build ({_one_line(err)})") from None
+            cfg = config_from_args(a, base)
+            out = Path(a.out) if a.out else ck.parent
+            if out.resolve() != ck.parent.resolve():
+                prepare_out(out, a.force)
+        else:
+            cfg = config_from_args(a)
+            out = Path(a.out or "runs/ddpg")
+            prepare_out(out, a.force)
         trainer = Trainer(cfg, out, command, progress=not a.quiet)
         if a.resume:
-            trainer.load_checkpoint(Path(a.resume))
+            trainer.load_checkpoint(ck, state)
     except (ValueError, OSError, RuntimeError) as err:
         print(f"train: {err}", file=sys.stderr)
         return 2

@@ -9,7 +9,8 @@ Registered ids (importing this module registers them):
 Observation: ``EnvConfig.layout`` (see observation.py: v1, or v2 with the sensor profile, velocity over
 ground and memory). Action: Box[-1, 1] scaled to +-20 deg. Step infos carry ``outcome`` and
 ``is_success`` (the goal was reached).
-``CageNavVecEnv`` steps many missions at once with one batched sonar call, for fast training.
+``CageNavVecEnv`` (vec_env.py, a gymnasium VectorEnv) steps many missions at once with one batched
+sonar call, for fast training.
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .mission import EnvConfig, Mission, observe_batch
+from .mission import EnvConfig, Mission
 from .scenarios import Scenario, Sampler, scenario_sampler
 
 WaypointFn = Callable[[Scenario], Sequence[Sequence[float]] | None]
@@ -124,53 +125,13 @@ class Study1DEnv(gym.Env):
             {"outcome": outcome, "steps": self.steps}
 
 
-class CageNavVecEnv:
-    """``n_envs`` missions stepped together; one batched sonar call per step.
-
-    Auto-resets in the same step (Gymnasium's SAME_STEP mode): a finished mission's last observation
-    and info are in ``infos["final_obs"][i]`` / ``infos["final_info"][i]`` and the returned
-    observation is the new episode's first. Each env has its own seeded generator.
-    """
-
-    def __init__(self, n_envs: int, scenario: Any = "cage", config: EnvConfig | None = None,
-                 waypoint_fn: WaypointFn | None = None, seed: int = 0):
-        self.n_envs = n_envs
-        self.config = config or EnvConfig()
-        self.sampler = scenario_sampler(scenario)
-        self.waypoint_fn = waypoint_fn
-        self.single_observation_space = observation_space(self.config)
-        self.single_action_space = ACTION_SPACE
-        seq = np.random.SeedSequence(seed)
-        self.rngs = [np.random.default_rng(s) for s in seq.spawn(n_envs)]
-        self.missions: list[Mission] = []
-
-    def reset(self) -> np.ndarray:
-        self.missions = [Mission(_prepare(self.sampler, r, self.waypoint_fn), self.config) for r in self.rngs]
-        return self._observe(range(self.n_envs))
-
-    def _observe(self, idx) -> np.ndarray:
-        return observe_batch(self.config, [self.missions[i] for i in idx], self.rngs[0])
-
-    def step(self, actions: np.ndarray):
-        actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(self.n_envs), -1.0, 1.0)
-        rewards = np.empty(self.n_envs)
-        terminated = np.zeros(self.n_envs, dtype=bool)
-        truncated = np.zeros(self.n_envs, dtype=bool)
-        outcomes: list[str | None] = [None] * self.n_envs
-        for i, (m, a) in enumerate(zip(self.missions, actions)):
-            rewards[i], outcomes[i] = m.step(a)
-            terminated[i] = outcomes[i] in ("goal", "collision", "wander")
-            truncated[i] = outcomes[i] == "timeout"
-        obs = self._observe(range(self.n_envs))
-        infos: dict[str, Any] = {"outcome": outcomes}
-        done = np.flatnonzero(terminated | truncated)
-        if len(done):
-            infos["final_obs"] = {int(i): obs[i].copy() for i in done}
-            infos["final_info"] = {int(i): self.missions[i].info() for i in done}
-            for i in done:
-                self.missions[i] = Mission(_prepare(self.sampler, self.rngs[i], self.waypoint_fn), self.config)
-            obs[done] = self._observe(done)
-        return obs, rewards, terminated, truncated, infos
+def __getattr__(name: str):
+    """``from cage_sim.env import CageNavVecEnv`` keeps working: it lives in vec_env.py (imported
+    lazily, since vec_env builds on this module's spaces)."""
+    if name == "CageNavVecEnv":
+        from .vec_env import CageNavVecEnv
+        return CageNavVecEnv
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _register() -> None:
