@@ -106,6 +106,15 @@ def test_bad_params(bad):
         ObstacleLayer(KnownMap.from_world(WITHOUT), LayerParams(**bad))
 
 
+def test_node_parameters_map_to_layer_params():
+    from cage_global_rrt.options import NODE_PARAMETERS, options_from_parameters
+    p = LayerParams.from_parameters({**NODE_PARAMETERS, "layer_confirm_scans": 5, "layer_forget_scans": 2})
+    assert (p.confirm_scans, p.forget_scans) == (5, 2) and p.error() is None
+    assert "confirm_scans" in LayerParams.from_parameters({"layer_confirm_scans": 0}).error()
+    # the layer's parameters are the node's, not planner options
+    assert options_from_parameters({**NODE_PARAMETERS, "obstacle_layer": True}) == PlannerOptions(seed=1)
+
+
 def test_non_finite_pose_is_ignored():
     lay = layer()
     lay.update((math.nan, 0.0, 0.0), SONAR.scan(WITH, *POSE), SONAR.angles, SONAR.max_range)

@@ -38,6 +38,12 @@ class LayerParams:
     known_tolerance: float = 0.75  # m: returns this close to a known obstacle are the map's
     net_tolerance: float = 1.5     # m: returns this close to (or beyond) the nominal net are the net's
 
+    @classmethod
+    def from_parameters(cls, values: dict) -> "LayerParams":
+        """From the node's ``layer_*`` parameters (the rest keep their defaults)."""
+        return cls(confirm_scans=int(values.get("layer_confirm_scans", cls.confirm_scans)),
+                   forget_scans=int(values.get("layer_forget_scans", cls.forget_scans)))
+
     def error(self) -> str | None:
         for name in ("cell", "pad", "known_tolerance", "net_tolerance"):
             v = getattr(self, name)
@@ -233,7 +239,13 @@ def plan_with_layer(planner: GlobalPlanner, layer: ObstacleLayer | None, pose, g
         return planner.plan(pose, goal)
     clearance = planner.options.clearance
     exit_ = layer.exit_point(pose, clearance)
+    if not layer.obstacles():
+        if planner.kmap is not layer.known:
+            planner.set_map(layer.known)   # nothing learnt: the known map itself (setup kept)
+        return planner.plan(pose, goal)
     planner.set_map(layer.planning_map(free=(exit_, goal), clearance=clearance))
+    if math.hypot(exit_[0] - pose[0], exit_[1] - pose[1]) <= 1e-9:
+        return planner.plan(pose, goal)    # keeps a heading the pose carries (Dubins)
     res = planner.plan(exit_, goal)
     if res.ok and math.hypot(exit_[0] - pose[0], exit_[1] - pose[1]) > 1e-9:
         head = np.array([[float(pose[0]), float(pose[1])]])

@@ -117,7 +117,10 @@ NODE_PARAMETERS: dict[str, Any] = {
     "simplify": True, "waypoint_spacing": 1.0, "dubins": False,
     "turning_radius": default_turning_radius(), "check_resolution": 0.1, "planner_seed": 1,
     "flyable": False, "arc_spacing": 0.5, "frame_id": "map",
+    "obstacle_layer": False, "layer_confirm_scans": 3, "layer_forget_scans": 3,
 }
+# Node parameters that are not planner options: the node's own and the obstacle layer's.
+NODE_ONLY = ("frame_id", "planner_seed", "obstacle_layer", "layer_confirm_scans", "layer_forget_scans")
 
 
 class InvalidParameters(ValueError):
@@ -126,7 +129,7 @@ class InvalidParameters(ValueError):
 
 def options_from_parameters(values: dict[str, Any]) -> PlannerOptions:
     """PlannerOptions from node parameter values; InvalidParameters names the problem."""
-    vals = {k: v for k, v in values.items() if k not in ("frame_id", "planner_seed")}
+    vals = {k: v for k, v in values.items() if k not in NODE_ONLY}
     try:
         vals["seed"] = int(values.get("planner_seed", 0)) or None
         opts = PlannerOptions.from_mapping(vals)
