@@ -138,8 +138,10 @@ def decision_step(x, y, yaw, action, params: VehicleParams, current=(0.0, 0.0), 
                   t: float = 0.0):
     """Advance one decision from an action in [-1, 1], in either motion mode.
 
-    ``continuous``: the heading setpoint ``yaw + action * max_turn`` integrated exactly over one
-    decision period (what the vehicle node does). ``study``: the study's instantaneous step.
+    ``continuous``: the heading setpoint ``yaw + action * max_turn`` integrated over one decision
+    period by ``advance`` (what the vehicle node does): ``current`` a uniform vector or a
+    ``CurrentField`` (then ``t`` is the decision's start time). ``study``: the study's instantaneous
+    step (no current: the study had none).
     """
     dpsi = params.heading_change(action)
     if motion == "study":
