@@ -5,6 +5,7 @@ follow exactly the waypoints the graph's rrt_node would publish for the same sta
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,7 +19,11 @@ SOURCE_CONFIG = Path(__file__).resolve().parents[1] / "config" / "rrt.yaml"
 
 
 def node_config_path() -> Path:
-    """rrt.yaml: from the installed share directory if there is one, else the source tree."""
+    """rrt.yaml: the file named by ``CAGE_RRT_CONFIG`` (to evaluate another planner configuration
+    offline, e.g. ``planner: optimal``), else the installed share directory's, else the source tree's."""
+    override = os.environ.get("CAGE_RRT_CONFIG")
+    if override:
+        return Path(override)
     try:
         from ament_index_python.packages import get_package_share_directory
         installed = Path(get_package_share_directory("cage_global_rrt")) / "config" / "rrt.yaml"

@@ -21,12 +21,15 @@ from cage_planner_msgs.msg import CageMap, MissionEvent, PlannerStatus
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry, Path
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+from visualization_msgs.msg import Marker, MarkerArray
 
 from cage_sim.node_runner import run_node
 from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw, stamp_ns
 
 from .known_map import KnownMap
+from .obstacle_layer import LayerParams, ObstacleLayer, plan_with_layer
 from .options import NODE_PARAMETERS, InvalidParameters, options_from_parameters
 from .planner import GlobalPlanner, PlanResult
 from .status import PlanStatus
@@ -52,6 +55,19 @@ class RrtNode(Node):
         self.create_subscription(Odometry, "odom", self._guard(self.on_odom, report=False), 10)
         self.create_subscription(PoseStamped, "plan_request", self._guard(self.on_goal), 10)
         self.create_subscription(MissionEvent, "mission_event", self._guard(self.on_event), 10)
+        # Obstacle layer (parameter obstacle_layer): sonar returns confirmed over several scans become
+        # temporary obstacles for every later plan; published as markers on ``obstacle_layer``.
+        self.layer: ObstacleLayer | None = None
+        self.layer_params: LayerParams | None = None
+        if values["obstacle_layer"]:
+            self.layer_params = LayerParams.from_parameters(values)
+            err = self.layer_params.error()
+            if err:
+                raise InvalidParameters(f"parameter {err}")
+            self.layer_pub = self.create_publisher(MarkerArray, "obstacle_layer", LATCHED)
+            self.create_subscription(LaserScan, "scan", self._guard(self.on_scan, report=False),
+                                     qos_profile_sensor_data)
+            self.layer_version = -1
         o = self.planner.options
         self.get_logger().info(f"rrt_node ready: {o.planner}, step {o.max_step} m, clearance {o.clearance} m, "
                                f"dubins {o.dubins}, frame {self.frame_id}")
@@ -79,6 +95,8 @@ class RrtNode(Node):
             self.publish(PlanResult(PlanStatus.INVALID_INPUT, f"map rejected: {err}"), clear_plan=False)
             return
         self.planner.set_map(known)
+        if self.layer_params is not None:   # a new map starts a new layer
+            self.layer = ObstacleLayer(known, self.layer_params)
         self.planner.prepare()  # build the OMPL setup now, not in the first request
         self.get_logger().info(f"map: net {known.net_radius:g} m, {len(known.squares) + len(known.circles)} obstacles")
         if self.waiting_for_map and self.goal is not None:
@@ -119,7 +137,7 @@ class RrtNode(Node):
             result = PlanResult(PlanStatus.NO_POSE, "no pose received on the odom topic yet")
         else:
             # R^2 plans ignore headings; Dubins plans start at the vehicle's heading
-            result = self.planner.plan(self.pose, self.goal)
+            result = plan_with_layer(self.planner, self.layer, self.pose, self.goal)
         self.publish(result)
 
     def publish(self, result: PlanResult, clear_plan: bool = True) -> None:
@@ -134,6 +152,37 @@ class RrtNode(Node):
         self.status_pub.publish(status)
         log = self.get_logger().info if result.ok else self.get_logger().warn
         log(f"plan {result.status.name}: {result.message} ({result.planning_time * 1e3:.2f} ms)")
+
+
+    def on_scan(self, msg) -> None:
+        """Feed the layer one scan from the latest pose; publish its obstacles when they change."""
+        if self.layer is None or self.pose is None:
+            return
+        ranges = np.asarray(msg.ranges, dtype=float)
+        angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges))
+        ranges[~(ranges >= msg.range_min)] = np.inf     # below range_min or NaN: no echo
+        self.layer.update(self.pose, ranges, angles, float(msg.range_max))
+        if self.layer.version != self.layer_version:
+            self.layer_version = self.layer.version
+            self.layer_pub.publish(layer_markers(self.layer, self.get_clock().now().nanoseconds, self.frame_id))
+
+
+def layer_markers(layer: ObstacleLayer, ns: int, frame_id: str) -> MarkerArray:
+    """The layer's circles as cylinders (ns ``obstacle_layer``), after a DELETEALL."""
+    clear = Marker(ns="obstacle_layer", id=0, action=Marker.DELETEALL)
+    out = [clear]
+    for i, ob in enumerate(layer.obstacles()):
+        m = Marker(ns="obstacle_layer", id=i + 1, action=Marker.ADD, type=Marker.CYLINDER)
+        m.pose.position.x, m.pose.position.y = ob.x, ob.y
+        m.pose.orientation.w = 1.0
+        m.scale.x = m.scale.y = 2.0 * ob.size
+        m.scale.z = 0.5
+        m.color.r, m.color.g, m.color.b, m.color.a = 1.0, 0.5, 0.0, 0.6
+        out.append(m)
+    for m in out:
+        m.header.stamp.sec, m.header.stamp.nanosec = int(ns // 1_000_000_000), int(ns % 1_000_000_000)
+        m.header.frame_id = frame_id
+    return MarkerArray(markers=out)
 
 
 def status_msg(result: PlanResult, ns: int, frame_id: str) -> PlannerStatus:
