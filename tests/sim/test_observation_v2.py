@@ -91,3 +91,20 @@ def test_batched_observation_equals_the_single_env_for_v2():
         assert np.array_equal(one, two)
         a.step(action)
         b.step(action)
+
+
+def test_memory_and_scanning_head_start_over_when_time_goes_back():
+    cfg = EnvConfig(sonar="fls", memory_bins=36)
+    b = ObservationBuilder(cfg.layout)
+    r = np.full(64, np.inf)
+    r[32] = 5.0
+    b.build(r, 0.0, 0.0, 0.0, 10.0, 10.0, 0.0)
+    assert len(b.memory) == 1
+    b.build(np.full(64, np.inf), 0.0, 0.0, 0.0, 0.0, 10.0, 0.0)     # a new mission at t = 0
+    assert len(b.memory) == 0
+    from cage_sim.world import World
+    s = make_sonar("scanning")
+    head = s.head()
+    head.reset(World(10.0), 0.0, 0.0, 0.0, 50.0)
+    scan = head.update(World(10.0), 0.0, 0.0, 0.0, 0.0)
+    assert scan.new.all() and scan.stamps.max() == pytest.approx(0.0)

@@ -280,8 +280,10 @@ class ObservationBuilder:
         self.layout = layout
         bins = getattr(layout, "memory_bins", 0)
         self.memory = ReturnMemory(bins, layout.memory_horizon) if bins else None
+        self.last_t = -math.inf
 
     def reset(self) -> None:
+        self.last_t = -math.inf
         if self.memory is not None:
             self.memory.reset()
 
@@ -291,6 +293,9 @@ class ObservationBuilder:
         if isinstance(lay, ObservationLayout):
             return lay.build(ranges, waypoint_distance, heading_error)
         hist = None
+        if t < self.last_t - 1e-9:     # time went back: a new mission or a restarted clock
+            self.reset()
+        self.last_t = t
         if self.memory is not None:
             r = np.asarray(ranges, dtype=float)
             n = r.shape[-1]

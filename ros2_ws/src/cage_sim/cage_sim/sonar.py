@@ -387,6 +387,8 @@ class ScanningHead(SonarHead):
                rng: np.random.Generator | None = None) -> Scan:
         s, n = self.sonar, self.sonar.n_beams
         t_prev, x0, y0, yaw0 = self.prev
+        if t < t_prev - 1e-9:          # time went back (a new mission, a restarted clock): start over
+            return self.reset(world, x, y, yaw, t, rng)
         last_k = int(math.floor((t - self.t0) / s.time_increment + 1e-9))
         ks = np.arange(self.next_index, last_k + 1)
         new = np.zeros(n, dtype=bool)
