@@ -15,7 +15,8 @@ from cage_sim.scenarios import Scenario, generate_cage
 from cage_sim.world import Obstacle, World
 
 
-@pytest.mark.parametrize("env_id", ["CageNav-v0", "CageNavMoving-v0", "CageNavStudy2D-v0", "CageNavStudy1D-v0"])
+@pytest.mark.parametrize("env_id", ["CageNav-v0", "CageNavMoving-v0", "CageNavStudy2D-v0", "CageNavStudy1D-v0",
+                                    "CageNavSea-v0"])
 def test_env_checker_passes(env_id):
     env = gym.make(env_id)
     check_env(env.unwrapped)

@@ -5,6 +5,9 @@ Registered ids (importing this module registers them):
   CageNavMoving-v0   full cage with moving fish schools and a water current
   CageNavStudy2D-v0  the study's 2D case (one random obstacle)
   CageNavStudy1D-v0  the study's 1D sanity case
+  CageNavSea-v0      exposed site: current 0-0.5 m/s (varying, net deformed), obstacles down to 0.15 m,
+                     two fleeing schools; forward-looking sonar, memory (72 bins) and velocity over ground
+                     (``SEA_FAMILY`` / ``SEA_CONFIG``)
 
 Observation: ``EnvConfig.layout`` (see observation.py: v1, or v2 with the sensor profile, velocity over
 ground and memory). Action: Box[-1, 1] scaled to +-20 deg. Step infos carry ``outcome`` and
@@ -134,11 +137,16 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+SEA_FAMILY = "cage?current=0-0.5&obstacles=mixed&schools=2"
+SEA_CONFIG = EnvConfig(sonar="fls", velocity=True, memory_bins=72)
+
+
 def _register() -> None:
     specs = {
         "CageNav-v0": {"scenario": "cage"},
         "CageNavMoving-v0": {"scenario": "cage_moving"},
         "CageNavStudy2D-v0": {"scenario": "study2d"},
+        "CageNavSea-v0": {"scenario": SEA_FAMILY, "config": SEA_CONFIG},
     }
     for env_id, kwargs in specs.items():
         if env_id not in gym.registry:
