@@ -90,3 +90,40 @@ def render_rgb(mission) -> np.ndarray:
     img = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)
     return img
+
+
+def plot_profiles(path: str, scenario, pose=None, seed: int = 0) -> None:
+    """One panel per sensor profile: what each sonar returns from ``pose`` (default: the scenario's start)
+    in the scenario's world. Beams with a return are drawn to it; the scanning panel colours them by age
+    (the head has swept for 2 s since its first sweep), which is what its LaserScan carries."""
+    from .sonar import PROFILE_NAMES, make_sonar
+    world = scenario.world
+    x, y, yaw = pose if pose is not None else scenario.start
+    fig, axes = plt.subplots(1, len(PROFILE_NAMES), figsize=(5 * len(PROFILE_NAMES), 5))
+    for ax, name in zip(axes, PROFILE_NAMES):
+        s = make_sonar(name)
+        rng = np.random.default_rng(seed)
+        head = s.head()
+        head.reset(world, x, y, yaw, 0.0, rng)
+        scan = head.update(world, x, y, yaw, 2.0, rng) if s.mechanical else head.last
+        draw_world(ax, world)
+        ages = scan.ages(2.0 if s.mechanical else 0.0)
+        for r, a, age in zip(scan.ranges, scan.angles, ages):
+            hit = np.isfinite(r)
+            rr = r if hit else s.max_range
+            colour = plt.cm.viridis(min(age / max(s.sweep_time, 1e-9), 1.0)) if s.mechanical else \
+                ("tab:red" if hit else "0.85")
+            ax.plot([x, x + rr * math.cos(yaw + a)], [y, y + rr * math.sin(yaw + a)], "-", lw=0.6,
+                    color=colour, alpha=1.0 if hit else 0.5)
+            if hit:
+                ax.plot(x + r * math.cos(yaw + a), y + r * math.sin(yaw + a), ".", ms=3, color="k")
+        ax.plot(x, y, "k^", ms=8)
+        w = math.degrees(s.beam_width)
+        ax.set_title(f"{name}: {s.n_beams} beams, {math.degrees(s.fov):.0f} deg, width {w:.1f} deg"
+                     + (f", sweep {s.sweep_time:.0f} s" if s.mechanical else ""), fontsize=9)
+        lim = s.max_range + 2
+        ax.set_xlim(x - lim, x + lim)
+        ax.set_ylim(y - lim, y + lim)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
