@@ -95,19 +95,21 @@ def propagate(x, y, yaw, heading_setpoint, dt, speed: float = 1.0,
 
 
 def advance(x: float, y: float, yaw: float, heading_setpoint: float, dt: float, params: VehicleParams,
-            current: "CurrentField | tuple[float, float]" = (0.0, 0.0), t: float = 0.0
-            ) -> tuple[float, float, float]:
+            current: "CurrentField | tuple[float, float]" = (0.0, 0.0), t: float = 0.0,
+            speed: float | None = None) -> tuple[float, float, float]:
     """Pose after ``dt`` s flying toward ``heading_setpoint`` in ``current`` (a field or a uniform vector)
-    starting at time ``t``: exact for a uniform current, substeps of <= MAX_SUBSTEP s otherwise."""
+    starting at time ``t``: exact for a uniform current, substeps of <= MAX_SUBSTEP s otherwise.
+    ``speed``: through-water speed if not ``params.speed`` (a slower setpoint; 0 drifts with the water)."""
+    v = params.speed if speed is None else speed
     if not isinstance(current, CurrentField):
-        return propagate(x, y, yaw, heading_setpoint, dt, params.speed, params.max_yaw_rate, current)
+        return propagate(x, y, yaw, heading_setpoint, dt, v, params.max_yaw_rate, current)
     if current.is_uniform:
-        return propagate(x, y, yaw, heading_setpoint, dt, params.speed, params.max_yaw_rate, current.uniform)
+        return propagate(x, y, yaw, heading_setpoint, dt, v, params.max_yaw_rate, current.uniform)
     n = max(1, int(math.ceil(dt / MAX_SUBSTEP - 1e-9)))
     h = dt / n
     for i in range(n):
         c = current.velocity(x, y, t + i * h)
-        x, y, yaw = _propagate_scalar(x, y, yaw, heading_setpoint, h, params.speed, params.max_yaw_rate, c)
+        x, y, yaw = _propagate_scalar(x, y, yaw, heading_setpoint, h, v, params.max_yaw_rate, c)
     return x, y, wrap_angle(yaw)
 
 

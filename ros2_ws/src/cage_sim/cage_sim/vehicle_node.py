@@ -36,7 +36,7 @@ from .node_common import check, decision_period_ns, declare, declare_vehicle
 from .node_runner import run_node
 from .ros_convert import EVENT_OUTCOMES, quaternion_to_yaw, stamp_ns, time_msg, yaw_to_quaternion
 from .scenarios import draw_scenario
-from .vehicle import propagate
+from .vehicle import advance
 from .watchdog import Silence
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -65,7 +65,7 @@ class VehicleNode(Node):
         sc = draw_scenario(p["scenario"], p["seed"])
         self.p = p
         self.x, self.y, self.yaw = sc.start
-        self.current = sc.world.current
+        self.current = sc.world.current_field
         self.period_ns = decision_period_ns(self.vehicle)
         self.dt_ns = self.period_ns // p["substeps"]
         if self.dt_ns * p["substeps"] != self.period_ns:
@@ -188,8 +188,9 @@ class VehicleNode(Node):
             return
         self.resume()
         speed = min(max(float(sp.speed), 0.0), self.vehicle.speed)
-        self.x, self.y, self.yaw = propagate(self.x, self.y, self.yaw, sp.heading, self.dt_ns / 1e9,
-                                             speed, self.vehicle.max_yaw_rate, self.current)
+        # advance: the env's own motion function (exact closed form in a uniform current, substeps in a varying one)
+        self.x, self.y, self.yaw = advance(self.x, self.y, self.yaw, sp.heading, self.dt_ns / 1e9, self.vehicle,
+                                           self.current, self.t_ns / 1e9, speed)
         self.t_ns += self.dt_ns
         self.publish_pose()
 
