@@ -23,6 +23,7 @@ Where the rclpy in use has no actions, the node serves ``goal_pose`` alone and s
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from builtin_interfaces.msg import Duration
@@ -58,6 +59,8 @@ class ActiveGoal:
         self.handle, self.future = handle, future
         self.progress = MissionProgress(mission_id, goal, waypoint_radius=waypoint_radius)
         self.flying = False          # a route has gone out on `mission`
+        self.route: np.ndarray | None = None
+        self.sent_wall = 0.0         # when the plan request last went out (wall s)
         self.result = None
 
 
@@ -181,11 +184,13 @@ class NavigatorNode(Node):
         req.pose.orientation = yaw_to_quaternion(0.0)
         req.pose.orientation.w = 0.0  # no heading asked: an all-zero quaternion (rrt_node plans R^2)
         self.request_pub.publish(req)
+        a.sent_wall = time.monotonic()
 
     def retry_request(self) -> None:
         """Re-send a request nobody has answered (rrt_node not up yet, or waiting for map/pose)."""
         a = self.active
-        if a is not None and not a.flying and a.result is None and self.request_pub.get_subscription_count() > 0:
+        if (a is not None and not a.flying and a.result is None and self.request_pub.get_subscription_count() > 0
+                and time.monotonic() - a.sent_wall >= self.p["retry_period"]):
             self.get_logger().debug(f"mission {a.id}: re-sending the plan request")
             self.send_request()
 
@@ -211,8 +216,10 @@ class NavigatorNode(Node):
         pts = path_points(msg)
         if len(pts) == 0 or not np.isfinite(pts).all():
             return  # a failed request: its status ends the goal
+        if a.route is not None and a.route.shape == pts.shape and np.allclose(a.route, pts, atol=1e-9):
+            return  # the same route again (an answer to a repeated request): nothing new to fly
         replan = a.flying
-        a.flying = True
+        a.flying, a.route = True, pts
         a.progress.set_route(pts, self.pose[1] if self.pose else None)
         now = self.pose[0] if self.pose else 0
         self.mission_pub.publish(mission_msg(a.id, Mission.ACTIVE, a.goal, pts, now, self.p["frame_id"]))
