@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent, PlannerStatus
 from geometry_msgs.msg import PoseStamped
@@ -35,14 +36,14 @@ def connected(probe, pub, timeout=15.0) -> bool:
 class PolicyRig:
     """A policy_node (baseline driver) on a straight 20 m plan, fed pose + scan decision by decision."""
 
-    def __init__(self, launch, probe, *params: str):
+    def __init__(self, launch, probe, *params: str, policy: str = "baseline"):
         self.probe = probe
         self.setpoints = probe.listen(HeadingSetpoint, "/cage/heading_setpoint")
         self.events = probe.listen(MissionEvent, "/cage/mission_event")
         mission_pub = probe.node.create_publisher(Mission, "/cage/mission", LATCHED)
         self.odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
         self.scan_pub = probe.node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
-        self.node = launch("cage_reactive_ddpg", "policy_node", "-p", "policy:=baseline", *params)
+        self.node = launch("cage_reactive_ddpg", "policy_node", "-p", f"policy:={policy}", *params)
         assert connected(probe, self.scan_pub), self.node.output
         mission_pub.publish(mission_msg(1, Mission.ACTIVE, (20.0, 0.0), [(20.0, 0.0)], 0))
         assert probe.until(lambda: "following a route" in self.node.output, 10), self.node.output
@@ -195,3 +196,58 @@ def test_policy_node_asks_for_a_replan_without_progress(launch, probe):
     assert probe.until(lambda: len(replans()) > 0, 5), rig.node.output
     assert "no progress" in replans()[0].detail and replans()[0].mission_id == 1
     assert all(sp.mission_id == 1 for sp in rig.setpoints)
+
+
+def shield_case():
+    """A scan where the shield overrides the shipped policy (found with the real policy and shield, as
+    the node has them): the vehicle at the origin heading +x, the waypoint 20 m ahead, a wall of
+    returns ahead. Returns (ranges, shielded action, raw action)."""
+    from cage_reactive_ddpg.policy import load_policy
+    from cage_sim.controller import ArcController
+    from cage_sim.mission import EnvConfig
+    from cage_sim.shield import SafetyShield
+    cfg = EnvConfig()
+    layout, vehicle = cfg.layout, cfg.vehicle
+    raw = load_policy(None, layout, vehicle)
+    for dist in (1.6, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0):
+        for half in (2, 4, 6, 9):
+            ranges = [math.inf] * 72
+            for k in range(-half, half + 1):
+                a = math.radians(5.0 * k)
+                ranges[k % 72] = dist / math.cos(a)
+            obs = layout.build(ranges, 20.0, 0.0)
+            shield = SafetyShield(raw, ArcController(layout, vehicle))
+            shielded = float(np.asarray(shield.act(obs)).reshape(-1)[0])
+            if shield.interventions:
+                return ranges, shielded, float(np.asarray(raw.act(obs)).reshape(-1)[0])
+    raise AssertionError("no scan found where the shield overrides the policy")
+
+
+def test_param_set_shield_false_changes_the_policy_node(launch, probe):
+    """What `ros2 param set /cage/policy_node shield false` sends: SetParameters on the node's service."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    ranges, shielded, raw = shield_case()
+    rig = PolicyRig(launch, probe, policy="")                       # the shipped policy, shield on
+    assert rig.decision(0, ranges, x=0.0), rig.node.output
+    sp = rig.setpoints[-1]
+    assert sp.source == HeadingSetpoint.SOURCE_SHIELD and sp.heading == pytest.approx(shielded * math.radians(20))
+
+    client = probe.node.create_client(SetParameters, "/cage/policy_node/set_parameters")
+    assert probe.until(client.service_is_ready, 15)
+
+    def set_param(name, value):
+        typ = ParameterType.PARAMETER_BOOL if isinstance(value, bool) else ParameterType.PARAMETER_DOUBLE
+        val = ParameterValue(type=typ, bool_value=value) if typ == ParameterType.PARAMETER_BOOL else \
+            ParameterValue(type=typ, double_value=value)
+        fut = client.call_async(SetParameters.Request(parameters=[Parameter(name=name, value=val)]))
+        assert probe.until(fut.done, 10)
+        return fut.result().results[0]
+
+    refused = set_param("speed", 2.0)                               # read at start only: refused, with why
+    assert not refused.successful and "restart" in refused.reason
+    assert set_param("shield", False).successful
+    assert rig.decision(1, ranges, x=0.0), rig.node.output           # the same place and scan again
+    sp = rig.setpoints[-1]
+    assert sp.source == HeadingSetpoint.SOURCE_POLICY and sp.heading == pytest.approx(raw * math.radians(20))
+    assert "safety shield off" in rig.node.output

@@ -27,7 +27,7 @@ import numpy as np
 from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
 from cage_sim.mission import EnvConfig
-from cage_sim.node_common import check, decision_period_ns, declare, declare_vehicle
+from cage_sim.node_common import VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle
 from cage_sim.node_runner import run_node
 from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
 from cage_sim.recovery import joining_under_way, remaining_route
@@ -80,6 +80,29 @@ class PolicyNode(Node):
         self.create_subscription(Mission, "mission", self.on_mission, LATCHED)
         self.create_subscription(MissionEvent, "mission_event", self.on_event, 10)
         self.create_timer(0.1, self.watch_scans)
+        self.add_on_set_parameters_callback(self.on_set_parameters)   # after every declare: rclpy calls it there too
+
+    def on_set_parameters(self, params):
+        """``ros2 param set <ns>/policy_node shield false`` takes effect at the next decision; the other
+        parameters are read at start only, so changing them at run time is refused with the reason."""
+        from rcl_interfaces.msg import SetParametersResult
+        for prm in params:
+            if prm.name == "shield":
+                if not isinstance(prm.value, bool):
+                    return SetParametersResult(successful=False, reason="shield must be a bool")
+            elif prm.name in self.p or prm.name in VEHICLE_PARAMETERS:
+                return SetParametersResult(successful=False,
+                                           reason=f"{prm.name} is read at start only: restart the node to change it")
+        for prm in params:
+            if prm.name == "shield" and prm.value != self.p["shield"]:
+                self.p["shield"] = prm.value
+                if self.source == HeadingSetpoint.SOURCE_BASELINE:
+                    self.get_logger().info(f"shield {prm.value}: no effect on the classical baseline")
+                    continue
+                raw = self.policy.policy if isinstance(self.policy, SafetyShield) else self.policy
+                self.policy = SafetyShield(raw, ArcController(self.layout, self.vehicle)) if prm.value else raw
+                self.get_logger().info(f"safety shield {'on' if prm.value else 'off'} from the next decision")
+        return SetParametersResult(successful=True)
 
     def check_parameters(self) -> None:
         """One line naming a bad parameter (exit 2), not a node that misbehaves later."""
