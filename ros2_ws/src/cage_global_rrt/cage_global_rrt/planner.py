@@ -24,6 +24,8 @@ from .visibility import OptimalGraph, optimal_graph
 
 # Extra clearance (m) for the flyable mode's replans when the arcs of a path do not fit.
 FLYABLE_EXTRA = (0.5, 1.0, 1.5, 2.0, 3.0)
+# A replanned flyable path may be at most this much longer than the corner path it replaces.
+FLYABLE_MAX_DETOUR = 1.25
 
 
 @dataclass
@@ -190,14 +192,17 @@ class GlobalPlanner:
         o, k = self.options, self.kmap
         done = fillet(pts, k, o.clearance, o.turning_radius, o.arc_spacing)
         if done is None:
+            limit = path_length(pts) * FLYABLE_MAX_DETOUR
             for extra in FLYABLE_EXTRA:
                 length, alt = optimal_graph(k, o.clearance + extra).shortest_path(s, g, endpoint_margin=o.clearance)
-                if math.isfinite(length):
-                    done = fillet(alt, k, o.clearance, o.turning_radius, o.arc_spacing)
-                    if done is not None:
-                        break
+                if length > limit:
+                    break   # wider graphs only get longer: a long detour is worse than a sharp corner
+                done = fillet(alt, k, o.clearance, o.turning_radius, o.arc_spacing)
+                if done is not None:
+                    break
         if done is None:
-            return pts, None, f"; corners kept: no arcs of radius {o.turning_radius:g} m fit with the clearance"
+            return pts, None, (f"; corners kept: no arcs of radius {o.turning_radius:g} m fit with the clearance "
+                               f"within {FLYABLE_MAX_DETOUR:g}x the length")
         return done[0], done[1], f", {len(done[1])} arcs of radius {o.turning_radius:g} m"
 
     def _endpoint_failure(self, s, g) -> PlanResult | None:
