@@ -1,4 +1,5 @@
-"""`ros2` for the world without ROS 2: run, topic list/info/echo/hz/pub, node list.
+"""`ros2` for the world without ROS 2: run, topic list/info/echo/hz/pub, node list/info, param
+list/get/set/dump, service list/type/call, action list/info/send_goal, interface list/show.
 
 Output mirrors ros2cli closely enough for muscle memory and scripts (YAML messages separated by `---`,
 `average rate:` blocks, one name per line).  Without a ros2 daemon every command waits for discovery:
@@ -167,23 +168,6 @@ def cmd_topic_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_topic_info(args: argparse.Namespace) -> int:
-    tool = _Tool()
-    try:
-        time.sleep(args.spin_time)
-        eps = [e for e in tool.observer().endpoints() if e.topic == args.topic_name
-               and not (e.participant == tool.node._domain.gid)]  # noqa: SLF001
-    finally:
-        tool.close()
-    if not eps:
-        print(f"Unknown topic '{args.topic_name}'", file=sys.stderr)
-        return 1
-    print(f'Type: {eps[0].ros_type}')
-    print(f'Publisher count: {sum(e.kind == "publisher" for e in eps)}')
-    print(f'Subscription count: {sum(e.kind == "subscription" for e in eps)}')
-    return 0
-
-
 def cmd_topic_echo(args: argparse.Namespace) -> int:
     from cage_ros_runtime.messages import message_class
     from cage_ros_runtime.yaml_format import message_to_yaml
@@ -313,9 +297,16 @@ def cmd_node_list(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------------------------- parser
 
+class _OneLineParser(argparse.ArgumentParser):
+    """Usage mistakes are one line (`ros2 param get: error: ...`), exit 2, like other CLI errors here."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f'{self.prog}: error: {message}\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog='ros2', description='ros2 for the cage runtime (no ROS 2 install)')
-    sub = parser.add_subparsers(dest='command', required=True)
+    parser = _OneLineParser(prog='ros2', description='ros2 for the cage runtime (no ROS 2 install)')
+    sub = parser.add_subparsers(dest='command', required=True, parser_class=_OneLineParser)
 
     run = sub.add_parser('run', help='Run a package specific executable')
     run.add_argument('package_name')
@@ -333,12 +324,6 @@ def build_parser() -> argparse.ArgumentParser:
     tl.add_argument('--no-daemon', action='store_true')
     tl.set_defaults(func=cmd_topic_list)
 
-    ti = tsub.add_parser('info', help='Print information about a topic')
-    ti.add_argument('topic_name')
-    ti.add_argument('-v', '--verbose', action='store_true')
-    ti.add_argument('--spin-time', type=float, default=1.0)
-    ti.add_argument('--no-daemon', action='store_true')
-    ti.set_defaults(func=cmd_topic_info)
 
     te = tsub.add_parser('echo', help='Output messages from a topic')
     te.add_argument('topic_name')
@@ -387,6 +372,10 @@ def build_parser() -> argparse.ArgumentParser:
     nl.add_argument('--spin-time', type=float, default=1.0)
     nl.add_argument('--no-daemon', action='store_true')
     nl.set_defaults(func=cmd_node_list)
+
+    from cage_ros_runtime import cli_graph, cli_param
+    cli_graph.add_parsers(sub, tsub, nsub)
+    cli_param.add_parsers(sub)
     return parser
 
 
@@ -396,6 +385,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 0
+    except BrokenPipeError:  # `ros2 ... | head`: the reader went away
+        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 - silence the flush at exit
+        return 0
+    except Exception as exc:  # noqa: BLE001 - a CLI prints one line, never a traceback
+        from rclpy.exceptions import NotInitializedException
+        from rclpy.executors import ExternalShutdownException
+        if isinstance(exc, (NotInitializedException, ExternalShutdownException)):
+            return 0  # SIGINT/SIGTERM shut the context down mid-command: a quiet end, as ros2cli
+        print(f'ros2 {args.command}: error: {type(exc).__name__}: {exc}', file=sys.stderr)
+        return 1
 
 
 if __name__ == '__main__':

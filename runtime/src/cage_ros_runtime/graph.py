@@ -65,13 +65,31 @@ class GraphPublisher:
 
 @dataclass
 class Endpoint:
-    """One discovered DDS endpoint of a ROS topic."""
+    """One discovered DDS endpoint of a ROS topic (or, with `dds_topic` rq/rr, of a service)."""
 
-    topic: str          # ROS name, e.g. /cage/scan
-    ros_type: str       # pkg/msg/Name
+    topic: str          # ROS name, e.g. /cage/scan (services: the service name)
+    ros_type: str       # pkg/msg/Name (services: pkg/srv/Name, the service type)
     kind: str           # 'publisher' or 'subscription'
     qos: Any            # cyclonedds Qos
     participant: bytes  # participant GUID prefix key
+    gid: bytes = b''    # the endpoint's GUID (what ros_discovery_info lists per node)
+    dds_topic: str = ''
+
+    @property
+    def type_hash(self) -> str:
+        from cage_ros_runtime.reqrep import user_data_key, _user_data
+        return user_data_key(_user_data(self), 'typehash') or ''
+
+
+def _service_of(dds_topic: str, dds_type: str) -> tuple[str, str] | None:
+    """(`/name`, `pkg/srv/Name`) for a request/reply topic, None for anything else."""
+    for prefix, suffix, type_suffix in (('rq/', 'Request', '_Request'), ('rr/', 'Reply', '_Response')):
+        if dds_topic.startswith(prefix) and dds_topic.endswith(suffix):
+            ros_type = ros_type_name(dds_type)
+            if ros_type is None or not ros_type.endswith(type_suffix):
+                return None
+            return '/' + dds_topic[len(prefix):-len(suffix)].lstrip('/'), ros_type[:-len(type_suffix)]
+    return None
 
 
 class GraphObserver:
@@ -92,8 +110,9 @@ class GraphObserver:
         self._node_info: dict[bytes, Any] = {}
         self._created = time.monotonic()
 
-    def endpoints(self) -> list[Endpoint]:
-        """Every alive ROS topic endpoint (`rt/` topics with mangled type names) seen so far."""
+    def endpoints(self, services: bool = False) -> list[Endpoint]:
+        """Every alive ROS topic endpoint (`rt/` topics with mangled type names) seen so far; with
+        `services`, the request/reply endpoints of services instead."""
         out = []
         for reader, kind in ((self._pub, 'publisher'), (self._sub, 'subscription')):
             for sample in reader.read(N=10000):
@@ -101,11 +120,29 @@ class GraphObserver:
                         sample.sample_info.instance_state != 16:  # 16 = ALIVE
                     continue
                 name = getattr(sample, 'topic_name', '') or ''
-                ros_type = ros_type_name(getattr(sample, 'type_name', '') or '')
+                dds_type = getattr(sample, 'type_name', '') or ''
+                gid = bytes(sample.key.bytes)
+                ppant = bytes(sample.participant_key.bytes)
+                if services:
+                    found = _service_of(name, dds_type)
+                    if found is not None:
+                        out.append(Endpoint(found[0], found[1], kind, sample.qos, ppant, gid, name))
+                    continue
+                ros_type = ros_type_name(dds_type)
                 if not name.startswith('rt/') or ros_type is None:
                     continue
-                out.append(Endpoint('/' + name[3:].lstrip('/'), ros_type, kind, sample.qos,
-                                    bytes(sample.participant_key.bytes)))
+                out.append(Endpoint('/' + name[3:].lstrip('/'), ros_type, kind, sample.qos, ppant, gid,
+                                    name))
+        return out
+
+    def node_of_endpoints(self) -> dict[bytes, tuple[str, str]]:
+        """{endpoint GID: (namespace, node name)} from ros_discovery_info."""
+        self._take_node_info()
+        out: dict[bytes, tuple[str, str]] = {}
+        for info in self._node_info.values():
+            for n in info.node_entities_info_seq:
+                for g in list(n.reader_gid_seq) + list(n.writer_gid_seq):
+                    out[bytes(bytearray(g.data))] = (n.node_namespace, n.node_name)
         return out
 
     def topics(self) -> dict[str, set[str]]:
