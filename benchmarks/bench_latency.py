@@ -1,6 +1,6 @@
 """Scan published -> heading setpoint received, across processes, through the real policy_node.
 
-The benchmark process publishes a plan, then odometry + LaserScan at a fixed rate (10 Hz and 100 Hz by
+The benchmark process publishes a mission (the navigator's Mission message: id and route), then odometry + LaserScan at a fixed rate (10 Hz and 100 Hz by
 default) and times each HeadingSetpoint the policy node (own process, shipped DDPG weights, free-run
 mode: one decision per scan) sends back. Prints p50/p90/p99/max per rate and per time window (to show
 the tail stays flat), and the policy node's resident memory at the start and end (growth check).
@@ -37,25 +37,25 @@ def pct(a, q) -> float:
 
 def run_rate(rate: float, duration: float, policy: str, windows: int) -> dict:
     import rclpy
-    from cage_planner_msgs.msg import HeadingSetpoint
-    from nav_msgs.msg import Odometry, Path as PathMsg
+    from cage_planner_msgs.msg import HeadingSetpoint, Mission
+    from nav_msgs.msg import Odometry
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     from sensor_msgs.msg import LaserScan
 
-    from cage_sim.ros_convert import path_msg, scan_msg, time_msg, yaw_to_quaternion
+    from cage_sim.ros_convert import mission_msg, scan_msg, time_msg, yaw_to_quaternion
     from cage_sim.scenarios import builtin_file
     from cage_sim.sonar import SonarModel
 
     domain = (os.getpid() % 150) + 60 + int(rate) % 7
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), PYTHONUNBUFFERED="1")
-    args = ["ros2", "run", "cage_reactive_ddpg", "policy_node", "--ros-args", "-p", "lockstep:=false",
+    args = ["ros2", "run", "cage_reactive_ddpg", "policy_node", "--ros-args", "-r", "__ns:=/cage", "-p", "lockstep:=false",
             "-p", "scan_timeout:=5.0"] + (["-p", f"policy:={policy}"] if policy else [])
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
     node_proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     rclpy.init(domain_id=domain)
     node = rclpy.create_node("latency_probe")
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    plan_pub = node.create_publisher(PathMsg, "/cage/plan", latched)
+    mission_pub = node.create_publisher(Mission, "/cage/mission", latched)
     odom_pub = node.create_publisher(Odometry, "/cage/odom", 10)
     scan_pub = node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
     sent: dict[int, float] = {}
@@ -69,7 +69,7 @@ def run_rate(rate: float, duration: float, policy: str, windows: int) -> dict:
 
     sc = builtin_file("full_cage.yaml")
     sonar = SonarModel()
-    plan_pub.publish(path_msg([sc.start[:2], sc.goal], 0))
+    mission_pub.publish(mission_msg(1, Mission.ACTIVE, sc.goal, [sc.start[:2], sc.goal], 0))
     deadline = time.monotonic() + 30
     while scan_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
         rclpy.spin_once(node, timeout_sec=0.05)
