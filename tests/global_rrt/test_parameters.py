@@ -12,8 +12,9 @@ from cage_global_rrt.options import (NODE_PARAMETERS, InvalidParameters, Planner
 CONFIG = Path(__file__).resolve().parents[2] / "ros2_ws/src/cage_global_rrt/config/rrt.yaml"
 
 
-def test_defaults_are_the_library_defaults_but_seeded():
-    assert options_from_parameters(dict(NODE_PARAMETERS)) == PlannerOptions(seed=1)
+def test_defaults_are_the_library_defaults_but_seeded_with_corner_waypoints():
+    # the node publishes corners (what the graph flies, as rrt.yaml says) and plans reproducibly
+    assert options_from_parameters(dict(NODE_PARAMETERS)) == PlannerOptions(seed=1, waypoint_spacing=0.0)
 
 
 def test_shipped_yaml_is_valid_and_complete():

@@ -43,8 +43,9 @@ class PlannerOptions:
     checked exactly, analytically).
     flyable: round every corner of the (R^2) path with an arc of ``turning_radius`` whose clearance
     is proven (``flyable.py``); the arcs are published as waypoints ``arc_spacing`` apart. Where the
-    arcs do not fit, the path is replanned on the visibility graph with more clearance; where that
-    fails too, the corner path is returned and its message says so.
+    arcs do not fit, the path is replanned on the visibility graph with more clearance (at most
+    1.25x longer); where that fails too, the corner path is returned (``PlanResult.flyable`` False)
+    and its message says so.
     arc_spacing: spacing (m) of the waypoints along the arcs of a flyable path.
     seed: OMPL RNG seed (>= 1) for reproducible plans; None = not reseeded.
     """
