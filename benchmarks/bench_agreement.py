@@ -1,6 +1,7 @@
 """Graph vs offline: the same seeded missions through the node graph and through the offline env.
 
-Each mission runs the launch-free graph (scripts/run_mission.sh: four node processes over DDS) and
+Each mission runs the launch-free graph (scripts/run_mission.sh: five node processes over DDS in the
+namespace /cage; the goal goes through the navigator's Navigate action) and
 the offline env (CageNavEnv with the same planner options and policy) on the same scenario seed.
 Prints outcome rates side by side, the share of missions with the same outcome and the same number
 of decisions, and ends with one JSON line. Target (issue 6): rates within 2 points.
