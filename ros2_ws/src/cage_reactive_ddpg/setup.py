@@ -27,6 +27,7 @@ setup(
             'policy_node = cage_reactive_ddpg.policy_node:main',
             'train = cage_reactive_ddpg.train:main',
             'evaluate = cage_reactive_ddpg.evaluate:main',
+            'sweep = cage_reactive_ddpg.sweep:main',
         ],
     },
 )

@@ -1,0 +1,163 @@
+"""Several seeds of one config: train each, evaluate each on held-out episodes, report the spread.
+
+Why: one seed says little about an RL method (papers that quote the best of five seeds are the
+field's main reproducibility complaint). ``train --seeds N`` trains seeds ``seed .. seed+N-1`` of the
+same config into ``OUT/seed_<s>/`` (as Ray tasks, one CPU and one torch thread each, when Ray is
+installed; one after another otherwise), then writes
+
+  OUT/seeds.json   per seed: the final evaluation (rates, 95 % Wilson intervals); over seeds: mean,
+                   min, max and standard deviation of every outcome rate
+  OUT/seeds.md     the same as a markdown table
+  OUT/seeds.png    learning curves (moving-average reward and success vs env steps): the mean over
+                   seeds and the min-max band
+
+The evaluation is the trainer's final one: ``eval_episodes`` missions drawn from the trainer's
+evaluation seed, disjoint from every training episode. ``aggregate`` works on any set of run folders.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import config as config_mod
+from .config import TrainConfig
+from .evaluate import wilson
+
+
+def ray_available() -> bool:
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def train_one(cfg_dict: dict, out: str, command: str, progress: bool = False) -> dict:
+    """Train one config into ``out``; return its final evaluation (runs in a Ray worker or here)."""
+    from .train import Trainer
+    cfg = config_mod.from_dict(cfg_dict)
+    tr = Trainer(cfg, Path(out), command, progress=progress)
+    return tr.run()
+
+
+def seed_dirs(out: Path, cfg: TrainConfig, n: int) -> list[tuple[TrainConfig, Path]]:
+    runs = []
+    for k in range(n):
+        c = config_mod.apply(config_mod.from_dict(cfg.to_dict()), {"seed": cfg.seed + k})
+        runs.append((c, out / f"seed_{c.seed}"))
+    return runs
+
+
+def train_seeds(cfg: TrainConfig, out: Path, n: int, command: str = "", use_ray: bool = True,
+                progress: bool = True, address: str | None = None) -> int:
+    """Train ``n`` seeds and aggregate them (see the module doc). Returns the exit code."""
+    if n < 1:
+        raise ValueError("--seeds: must be >= 1")
+    runs = seed_dirs(out, cfg, n)
+    out.mkdir(parents=True, exist_ok=True)
+    if use_ray and ray_available():
+        import ray
+        ray.init(address=address or os.environ.get("RAY_ADDRESS"), include_dashboard=False,
+                 log_to_driver=False, configure_logging=False)
+        task = ray.remote(num_cpus=1)(train_one)
+        print(f"seeds: {n} runs as Ray tasks on {ray.cluster_resources().get('CPU', 0):.0f} CPUs", file=sys.stderr)
+        ray.get([task.remote({**c.to_dict(), "threads": 1}, str(d), command) for c, d in runs])
+    else:
+        why = "" if use_ray is False else " (Ray not installed: bash scripts/setup.sh --with-ray)"
+        print(f"seeds: {n} runs one after another{why}", file=sys.stderr)
+        for c, d in runs:
+            train_one(c.to_dict(), str(d), command, progress=progress)
+    summary = aggregate([d for _, d in runs], out)
+    print(table(summary))
+    return 0
+
+
+def _final_eval(run: Path) -> dict:
+    meta = json.loads((run / "policy.json").read_text())
+    ev = meta.get("evaluation") or {}
+    if "rates" not in ev or not ev["rates"]:
+        raise ValueError(f"{run}: its policy.json has no final evaluation (eval_episodes = 0?)")
+    n = int(ev.get("episodes") or 0)
+    ci = ev.get("ci95") or {o: list(wilson(round(r * n), n)) for o, r in ev["rates"].items()}
+    return {"seed": meta["config"]["seed"], "episodes": n, "rates": ev["rates"],
+            "ci95": ci, "env_steps": meta["training"]["env_steps"],
+            "seconds": meta["training"]["seconds"]}
+
+
+def aggregate(runs: list[Path], out: Path | None = None) -> dict[str, Any]:
+    """Mean/min/max/std over seeds of each outcome rate, plus every seed's rates and intervals;
+    written to ``out``/seeds.json, .md and .png when ``out`` is given."""
+    per = [_final_eval(Path(r)) for r in runs]
+    outcomes = list(per[0]["rates"])
+    over = {}
+    for o in outcomes:
+        v = np.array([p["rates"][o] for p in per], dtype=float)
+        over[o] = {"mean": float(v.mean()), "min": float(v.min()), "max": float(v.max()),
+                   "std": float(v.std(ddof=1)) if len(v) > 1 else 0.0}
+    summary = {"seeds": [p["seed"] for p in per], "runs": [str(r) for r in runs], "per_seed": per,
+               "over_seeds": over, "episodes_per_seed": per[0]["episodes"]}
+    if out is not None:
+        out = Path(out)
+        (out / "seeds.json").write_text(json.dumps(summary, indent=2))
+        (out / "seeds.md").write_text(table(summary) + "\n")
+        plot_band([Path(r) for r in runs], out / "seeds.png")
+    return summary
+
+
+def table(s: dict) -> str:
+    """Markdown: one row per seed (rate and 95 % interval of goal and collision), then mean/min/max."""
+    lines = [f"{len(s['seeds'])} seeds, {s['episodes_per_seed']} held-out evaluation episodes each",
+             "", "| seed | goal | goal 95 % CI | collision | collision 95 % CI |", "|---:|---:|---|---:|---|"]
+    for p in s["per_seed"]:
+        g, c = p["rates"]["goal"], p["rates"].get("collision", 0.0)
+        gi, ci = p["ci95"].get("goal", [g, g]), p["ci95"].get("collision", [c, c])
+        lines.append(f"| {p['seed']} | {100 * g:.1f} % | [{100 * gi[0]:.1f}, {100 * gi[1]:.1f}] | "
+                     f"{100 * c:.1f} % | [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}] |")
+    for stat in ("mean", "min", "max"):
+        o = s["over_seeds"]
+        lines.append(f"| **{stat}** | {100 * o['goal'][stat]:.1f} % | | "
+                     f"{100 * o.get('collision', {}).get(stat, 0.0):.1f} % | |")
+    return "\n".join(lines)
+
+
+def _curve(run: Path, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    from .train import read_rows
+    rows = read_rows(run / "episodes.csv", 10 ** 12)
+    if len(rows) < 2:
+        return None
+    k = min(window, max(1, len(rows) // 4))     # short runs: a shorter window, still a curve
+    steps = np.array([r["step"] for r in rows], float)
+    rew = np.convolve([r["reward"] for r in rows], np.ones(k) / k, mode="valid")
+    suc = np.convolve([r["success"] for r in rows], np.ones(k) / k, mode="valid")
+    return steps[k - 1:], rew, suc
+
+
+def plot_band(runs: list[Path], path: Path, window: int = 100) -> None:
+    """Moving-average reward and success of each seed on a common env-step grid: mean and min-max."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    curves = [c for c in (_curve(r, window) for r in runs) if c is not None]
+    if not curves:
+        return
+    lo, hi = max(c[0][0] for c in curves), min(c[0][-1] for c in curves)
+    if hi <= lo:
+        return
+    grid = np.linspace(lo, hi, 200)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for ax, j, label in ((axes[0], 1, "reward"), (axes[1], 2, "success rate")):
+        ys = np.array([np.interp(grid, c[0], c[j]) for c in curves])
+        ax.fill_between(grid, ys.min(0), ys.max(0), alpha=0.3, label=f"min-max over {len(curves)} seeds")
+        ax.plot(grid, ys.mean(0), lw=1.8, label="mean")
+        ax.set_xlabel("env steps")
+        ax.set_ylabel(f"{label} (moving average, {window} episodes)")
+        ax.legend()
+    fig.suptitle(f"{len(curves)} seeds")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,85 @@
+"""Seeds and sweeps: several seeds aggregate into mean/min/max with per-seed intervals and a band plot;
+a 2-trial Ray Tune + Optuna sweep runs on a local Ray instance, writes its table, best config and
+PNG, and resumes instead of starting over (skipped only when Ray is not installed)."""
+import csv
+import importlib.util
+import json
+
+import pytest
+
+from cage_reactive_ddpg import config as config_mod
+from cage_reactive_ddpg.seeds import train_seeds
+from cage_reactive_ddpg.sweep import load_spec
+from cage_reactive_ddpg.sweep import main as sweep_main
+from cage_reactive_ddpg.train import main as train_main
+
+TINY_1D = {"scenario": "study1d", "total_steps": 600, "n_envs": 4, "prefill_steps": 100, "actor_hidden": [16, 16],
+           "critic_hidden": [16, 16], "batch_size": 32, "buffer_size": 2000, "eval_episodes": 30,
+           "tensorboard": False, "noise": "gaussian", "lr_actor": 1e-3, "gamma": 0.5}
+
+
+def test_seeds_aggregate_mean_min_max_and_band(tmp_path, capsys):
+    cfg = config_mod.build("study", overrides={**TINY_1D, "seed": 3})
+    assert train_seeds(cfg, tmp_path, 3, use_ray=False, progress=False) == 0
+    s = json.loads((tmp_path / "seeds.json").read_text())
+    assert s["seeds"] == [3, 4, 5] and len(s["per_seed"]) == 3
+    goals = [p["rates"]["goal"] for p in s["per_seed"]]
+    o = s["over_seeds"]["goal"]
+    assert o["min"] == min(goals) and o["max"] == max(goals) and o["mean"] == pytest.approx(sum(goals) / 3)
+    for p in s["per_seed"]:
+        lo, hi = p["ci95"]["goal"]
+        assert lo <= p["rates"]["goal"] <= hi and p["episodes"] == 30
+    assert (tmp_path / "seeds.png").stat().st_size > 10_000
+    assert "| **mean** |" in (tmp_path / "seeds.md").read_text()
+    # different seeds really train differently (their weights are not the same file)
+    w = [(tmp_path / f"seed_{k}" / "policy.safetensors").read_bytes() for k in (3, 4)]
+    assert w[0] != w[1]
+
+
+def test_train_seeds_cli_refuses_used_out(tmp_path, capsys):
+    (tmp_path / "x").mkdir()
+    (tmp_path / "x" / "episodes.csv").write_text("episode\n")
+    assert train_main(["--seeds", "2", "--out", str(tmp_path / "x")]) == 2
+    assert "not empty" in capsys.readouterr().err
+
+
+def test_sweep_file_is_checked(tmp_path):
+    f = tmp_path / "s.yaml"
+    f.write_text("base: {preset: study, total_steps: 100}\nspace: {lr_actor: {uniform: [1, 2]}}\ntrails: 3\n")
+    with pytest.raises(ValueError, match="trails: unknown sweep key"):
+        load_spec(f)
+    f.write_text("base: {preset: study, total_steps: 100}\nspace: {lr_acter: {uniform: [1, 2]}}\n")
+    with pytest.raises(ValueError, match="space.lr_acter: unknown config key"):
+        load_spec(f)
+    f.write_text("base: {preset: study, total_steps: 100}\nspace: {tau: {normal: [0, 1]}}\n")
+    with pytest.raises(ValueError, match="space.tau: expected one of"):
+        load_spec(f)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None or importlib.util.find_spec("optuna") is None,
+                    reason="Ray/Optuna not installed (optional extra: bash scripts/setup.sh --with-ray)")
+def test_two_trial_sweep_on_local_ray_and_resume(tmp_path, capsys):
+    f = tmp_path / "tiny.yaml"
+    base = {**TINY_1D, "total_steps": 400, "eval_episodes": 10}
+    f.write_text(f"name: tiny\nbase: {json.dumps({'preset': 'study', **base})}\n"
+                 "space:\n  lr_actor: {loguniform: [1.0e-4, 1.0e-2]}\n  actor_hidden: {choice: [[16, 16], [32]]}\n"
+                 "trials: 2\nreports: 2\neval_episodes: 10\nconcurrent: 2\n")
+    out = tmp_path / "out"
+    try:
+        assert sweep_main(["--config", str(f), "--out", str(out), "--quiet"]) == 0
+        with (out / "tiny_trials.csv").open() as fh:
+            rows = list(csv.DictReader(fh))
+        assert len(rows) == 2 and all(0.0 <= float(r["goal"]) <= 1.0 for r in rows)
+        assert {json.loads(r["actor_hidden"]) == [16, 16] or json.loads(r["actor_hidden"]) == [32] for r in rows} == {True}
+        best = config_mod.build(file=out / "tiny_best.yaml")       # the best config trains as it is
+        assert best.scenario == "study1d" and best.total_steps == 400 and best.threads == 1
+        assert (out / "tiny.png").stat().st_size > 10_000
+        capsys.readouterr()
+        # running it again resumes the finished experiment: no new trials
+        assert sweep_main(["--config", str(f), "--out", str(out), "--quiet"]) == 0
+        assert "resuming" in capsys.readouterr().err
+        with (out / "tiny_trials.csv").open() as fh:
+            assert len(list(csv.DictReader(fh))) == 2
+    finally:
+        import ray
+        ray.shutdown()
