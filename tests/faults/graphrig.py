@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import subprocess
 import time
 from pathlib import Path
 
@@ -82,7 +83,11 @@ class GraphRig:
                     p.proc.send_signal(signal.SIGCONT)
                 except ProcessLookupError:
                     pass
-            p.stop()
+            try:
+                p.stop()
+            except subprocess.TimeoutExpired:   # Proc.stop has SIGKILLed it; note it for the log reader
+                with open(p.log, "a") as fh:
+                    fh.write("\n[graphrig] did not exit within 10 s of SIGINT: SIGKILL\n")
         self.probe.close()
 
     # --- observation -----------------------------------------------------------------------

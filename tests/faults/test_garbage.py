@@ -30,6 +30,7 @@ BAD_PARAMETERS = [
     ("cage_reactive_ddpg", "policy_node", "max_invalid_fraction:=5.0"),
     ("cage_reactive_ddpg", "policy_node", "waypoint_radius:=-1.0"),
     ("cage_reactive_ddpg", "policy_node", "replan_after:=0"),
+    ("cage_sim", "mission_client_node", "progress_every:=0"),
 ]
 
 
@@ -38,8 +39,10 @@ def _construct(pkg: str, exe: str, *params: str) -> str:
     ValueError that ``run_node`` turns into one fatal line and exit 2), or "" if it started."""
     import importlib
     import rclpy
+    import rclpy.node
     module = importlib.import_module(f"{pkg}.{exe}")
-    cls = next(v for k, v in vars(module).items() if k.endswith("Node") and k != "Node" and isinstance(v, type))
+    cls = next(v for k, v in vars(module).items() if isinstance(v, type) and issubclass(v, rclpy.node.Node)
+               and v.__module__ == module.__name__)
     rclpy.init(args=["--ros-args", *[a for p in params for a in ("-p", p)]])
     try:
         node = cls()

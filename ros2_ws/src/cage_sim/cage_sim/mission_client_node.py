@@ -46,6 +46,8 @@ class MissionClient(Node):
         super().__init__("mission_client")
         self.p = declare(self, scenario="full_cage", seed=0, timeout=120.0, png="out/mission_track.png",
                          progress_every=10, resend_period=2.0, frame_id="map", use_action=True)
+        if not (isinstance(self.p["progress_every"], int) and self.p["progress_every"] >= 1):
+            raise ValueError(f"parameter progress_every:={self.p['progress_every']!r} is invalid: must be an integer >= 1")
         self.scenario = draw_scenario(self.p["scenario"], self.p["seed"])
         self.started = time.monotonic()
         self.result: dict | None = None

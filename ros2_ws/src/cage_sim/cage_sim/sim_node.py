@@ -9,6 +9,13 @@ Each decision is judged by the same ``Mission`` code the offline env uses; START
 and the outcome (goal, collision, wander, timeout) go out on ``mission_event`` with the mission id.
 The world and its moving obstacles follow the vehicle node's simulation clock (odometry stamps), so
 they stand still while the graph waits.
+
+Faults: odometry with a non-finite pose, a negative stamp or a stamp before the last judged decision
+is refused (logged, rate-limited); a repeat of the last pose within 50 ms is not rescanned (a flood
+costs nothing). Markers are sent in full once (latched) and then only the moving ones, at most
+``marker_rate`` times per wall second, so 10,000 obstacles do not cost a MarkerArray per odometry
+message. A simulator restarted mid-mission (the first mission it sees, starting after t=0) judges the
+rest of the latched route from the vehicle's pose, not a detour back to the mission start.
 """
 from __future__ import annotations
 
