@@ -90,3 +90,16 @@ def test_policy_scan_watchdog_runs_in_sim_time(launch, probe):
     assert "of sim time" in events[-1].detail
     assert setpoints[-1].source == HeadingSetpoint.SOURCE_FAILSAFE and setpoints[-1].speed == 0.0
     assert_clean(node.output)
+
+
+def test_simulator_notices_a_silent_vehicle_once(launch, probe):
+    odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
+    node = launch("cage_sim", "sim_node", "-p", "scenario:=study2d", "-p", "seed:=1", "-p", "liveness_timeout:=0.5")
+    assert probe.until(lambda: odom_pub.get_subscription_count() > 0, 20), node.output
+    odom_pub.publish(odom(0.0, 0.0, 0.0, 0))
+    assert probe.until(lambda: "the vehicle node is silent" in node.output, 10), node.output
+    probe.until(lambda: False, 1.5)
+    assert node.output.count("the vehicle node is silent") == 1
+    odom_pub.publish(odom(0.0, 0.0, 0.0, S))
+    assert probe.until(lambda: "odometry is back" in node.output, 10), node.output
+    assert_clean(node.output)

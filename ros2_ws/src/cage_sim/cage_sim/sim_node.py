@@ -42,6 +42,7 @@ from .ros_convert import (OUTCOME_EVENTS, mission_points, odom_pose, path_msg, s
                           world_to_map)
 from .scenarios import draw_scenario
 from .sonar import SonarModel
+from .watchdog import Silence
 from .world import World
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -52,12 +53,14 @@ class SimNode(Node):
         super().__init__("sim_node")
         vehicle = declare_vehicle(self)
         p = declare(self, scenario="full_cage", seed=0, frame_id="map", sensor_frame_id="base_link",
-                    n_beams=72, max_range=20.0, noise_std=0.0, dropout=0.0, marker_rate=2.0)
+                    n_beams=72, max_range=20.0, noise_std=0.0, dropout=0.0, marker_rate=2.0, liveness_timeout=2.0)
         self.p = p
         fin = lambda v: isinstance(v, (int, float)) and math.isfinite(v)  # noqa: E731
         check("n_beams", p["n_beams"], isinstance(p["n_beams"], int) and 1 <= p["n_beams"] <= 4096, "in [1, 4096]")
         check("max_range", p["max_range"], fin(p["max_range"]) and p["max_range"] > 0, "> 0")
         check("marker_rate", p["marker_rate"], fin(p["marker_rate"]) and 0 < p["marker_rate"] <= 100, "in (0, 100] Hz")
+        check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0, "> 0 s")
+        self.odom_silence = Silence(p["liveness_timeout"])   # the vehicle node's liveliness, in wall time
         self.marker_wall = 0.0
         self.scan_wall = 0.0
         self.started_missions = 0
@@ -80,6 +83,7 @@ class SimNode(Node):
         self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
         self.track_pub = self.create_publisher(Path, "track", LATCHED)
         self.create_subscription(Odometry, "odom", self.on_odom, 10)
+        self.create_timer(0.5, self.watch_odometry)
         self.create_subscription(MissionMsg, "mission", self.on_mission, LATCHED)
 
         # Compile (or load from numba's cache) the sonar before anyone waits on a scan.
@@ -152,6 +156,8 @@ class SimNode(Node):
                                       f"{self.last_judged_ns / 1e9:.2f} s)", throttle_duration_sec=5.0)
             return
         now = time.monotonic()
+        if self.odom_silence.heard(now):
+            self.get_logger().info(f"odometry is back at t={t_ns / 1e9:.1f} s")
         if (t_ns, pose) == self.last_pose and now - self.scan_wall < 0.05:
             return   # a repeat (the vehicle waiting, or a flood): it already has its scan
         self.last_pose, self.scan_wall = (t_ns, pose), now
@@ -186,6 +192,12 @@ class SimNode(Node):
         else:
             self.get_logger().debug(f"decision {m.steps}: ({pose[0]:.2f}, {pose[1]:.2f}), "
                                     f"{m.remaining:.1f} m to go")
+
+    def watch_odometry(self) -> None:
+        """Say once when the vehicle node falls silent (dead or paused: the clock stands, nothing to judge)."""
+        silent = self.odom_silence.check(time.monotonic())
+        if silent is not None:
+            self.get_logger().warning(f"no odometry for {silent:.1f} s: the vehicle node is silent")
 
     def markers(self, t_ns: int, moving_only: bool = False) -> MarkerArray:
         out, t = [], t_ns / 1e9
