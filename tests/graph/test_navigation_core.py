@@ -1,0 +1,49 @@
+"""The navigator's ROS-free part: result codes, goal checks with the planner's validity test, progress."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cage_global_rrt.geometry import point_valid
+from cage_global_rrt.known_map import KnownMap
+from cage_sim import navigation
+from cage_sim.navigation import MissionProgress, goal_problem
+from cage_sim.scenarios import draw_scenario
+
+
+def test_result_codes_are_the_action_files():
+    from cage_planner_msgs.action import Navigate
+    names = [n for n in dir(Navigate.Result) if n.isupper()]
+    assert len(names) == len(navigation.CODE_NAMES) == 8
+    for name in names:
+        assert getattr(navigation, name) == getattr(Navigate.Result, name), name
+
+
+def test_goal_problem_uses_the_planners_validity_and_names_the_reason():
+    sc = draw_scenario("full_cage", 0)
+    k = KnownMap.from_world(sc.world)
+    check = lambda g: goal_problem(g, k.net_radius, 1.0, k.squares, k.circles, point_valid)  # noqa: E731
+    assert check(sc.goal) is None
+    ob = sc.world.known[0]
+    code, why = check((ob.x, ob.y))
+    assert code == "GOAL_OCCUPIED" and "clearance" in why
+    code, why = check((40.0, 0.0))
+    assert code == "GOAL_OUTSIDE_NET" and "10.00 m outside" in why
+    assert check((29.5, 0.0))[0] == "GOAL_OCCUPIED"            # inside the net, within the clearance of it
+    assert check((math.nan, 0.0))[0] == "INVALID_INPUT"
+
+
+def test_progress_counts_distance_decisions_and_shield():
+    p = MissionProgress(1, (10.0, 0.0))
+    p.set_route(np.array([[5.0, 5.0], [10.0, 0.0]]), (0.0, 0.0, 0.0))
+    assert p.path_length == pytest.approx(2 * math.hypot(5, 5))
+    p.start(2_000_000_000, (0.0, 0.0, 0.0))
+    p.on_pose(3_000_000_000, (1.0, 1.0, 0.0))
+    for k, shielded in ((2, False), (3, True), (3, True), (4, False)):   # a repeated setpoint counts once
+        p.on_setpoint(k, shielded)
+    assert len(p.decisions) == 3 and len(p.shielded) == 1
+    assert p.travelled == pytest.approx(math.sqrt(2))
+    assert p.distance_remaining() == pytest.approx(math.hypot(4, 4) + math.hypot(5, 5))
+    assert p.elapsed_ns == 1_000_000_000
