@@ -51,6 +51,7 @@ def test_an_fls_policy_remembers_what_left_its_sector():
 def test_compatibility_check_names_the_sensor_profile():
     fls = EnvConfig(sonar="fls").layout
     study = EnvConfig(sonar="study", velocity=True).layout
+    assert isinstance(fls, ObservationLayoutV2) and isinstance(study, ObservationLayoutV2)
     with pytest.raises(ValueError, match="profile: file has 'fls', this build uses 'study'"):
         study.check_compatible(fls.to_dict())
     with pytest.raises(ValueError, match="profile: file has 'study', this build uses 'fls'"):

@@ -35,6 +35,9 @@ def test_net_area_loss_follows_the_full_scale_measurements(outside, loss):
     assert net.area_loss() == pytest.approx(loss, abs=0.002)           # the polygon the sonar sees
     # the upstream wall (flow comes from -x) is pushed in; the downstream wall stays at R
     assert net.r(math.pi) < 30.0 * (1 - loss / 2) and net.r(0.0) == pytest.approx(30.0)
+    assert loss_for_current(inside) == net.loss
+    with pytest.raises(ValueError, match="current speed must be >= 0"):
+        loss_for_current(-0.1)
 
 
 def test_sonar_and_collision_see_the_deformed_wall_the_map_does_not():

@@ -30,7 +30,7 @@ its own world (worlds are packed as flat arrays plus offsets).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Sequence
 
