@@ -62,3 +62,21 @@ def test_action_goal_feedback_result_cancel_reject(spawn: Callable[..., Any], co
     assert cancel.result().return_code == CancelGoal.Response.ERROR_GOAL_TERMINATED
     client.destroy()
     node.destroy_node()
+
+
+def test_status_array_fast_codec_equals_generic() -> None:
+    import os
+
+    from action_msgs.msg import GoalInfo, GoalStatus, GoalStatusArray
+    from builtin_interfaces.msg import Time
+    from rclpy.action.common import decode_status_array, encode_status_array
+    from unique_identifier_msgs.msg import UUID
+
+    from cage_ros_runtime import messages
+    for n in (0, 1, 5):
+        entries = [(os.urandom(16), 5 + i, 7 * i, i % 7) for i in range(n)]
+        msg = GoalStatusArray(status_list=[GoalStatus(
+            goal_info=GoalInfo(goal_id=UUID(uuid=list(u)), stamp=Time(sec=s, nanosec=ns)), status=st)
+            for u, s, ns, st in entries])
+        assert encode_status_array(entries) == messages.serialize(msg)
+        assert decode_status_array(messages.serialize(msg)) == entries

@@ -39,6 +39,9 @@ class Service:
             endpoint_qos(qos_profile, ros_type, writer=True, user_data=user_data))
         #: replies waiting for the client's reader: (deadline, clientid, guid, seq, cdr)
         self._pending: List[Tuple[float, str, int, int, bytes]] = []
+        #: caches: request writer handle -> (present, clientid); clientids of matched reply readers
+        self._writer_ids: dict = {}
+        self._matched_readers: set = set()
 
     @property
     def service_name(self) -> str:
@@ -63,7 +66,15 @@ class Service:
             except Exception as exc:  # noqa: BLE001 - a malformed request must not stop the node
                 self._node.get_logger().warning(f'{self.srv_name}: dropped a malformed request ({exc})')
                 continue
-            present, clientid = reqrep.writer_client_id(reader.reader, info.publication_handle)
+            handle = info.publication_handle
+            known = self._writer_ids.get(handle)
+            if known is None:  # asking Cyclone for the writer's QoS costs ~0.5 ms: once per writer
+                known = reqrep.writer_client_id(reader.reader, handle)
+                if known[0]:
+                    if len(self._writer_ids) > 1024:
+                        self._writer_ids.clear()
+                    self._writer_ids[handle] = known
+            present, clientid = known
             out.append((request, (guid, seq, clientid, present)))
         return out
 
@@ -78,7 +89,9 @@ class Service:
         cdr = reqrep.wrap(guid, seq, messages.serialize(response))
         if not present:
             return  # the client is gone (rmw: GONE)
-        if clientid is None or clientid in reqrep.matched_reader_ids(self._writer.writer):
+        if clientid is not None and clientid not in self._matched_readers:
+            self._matched_readers = reqrep.matched_reader_ids(self._writer.writer)
+        if clientid is None or clientid in self._matched_readers:
             self._writer.write(cdr)
         else:
             self._pending.append((time.monotonic() + REPLY_MATCH_TIMEOUT_S, clientid, guid, seq, cdr))
@@ -87,7 +100,7 @@ class Service:
         """Send deferred replies whose client reader is now matched; True while some are left."""
         if not self._pending or self._writer is None:
             return False
-        matched = reqrep.matched_reader_ids(self._writer.writer)
+        matched = self._matched_readers = reqrep.matched_reader_ids(self._writer.writer)
         now = time.monotonic()
         left = []
         for item in self._pending:

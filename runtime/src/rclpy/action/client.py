@@ -9,8 +9,8 @@ from typing import Any, Callable, Dict, Optional
 from action_msgs.msg import GoalInfo, GoalStatus, GoalStatusArray
 from action_msgs.srv import CancelGoal
 
-from rclpy.action.common import (FEEDBACK_QOS, SERVICE_QOS, STATUS_QOS, entity_names, goal_key,
-                                 new_goal_id)
+from rclpy.action.common import (FEEDBACK_QOS, SERVICE_QOS, STATUS_QOS, decode_status_array,
+                                 entity_names, goal_key, new_goal_id)
 from rclpy.client import Client
 from rclpy.task import Future
 
@@ -84,7 +84,7 @@ class ActionClient:
         self._feedback_sub = node.create_subscription(impl.FeedbackMessage, names['feedback'],
                                                       self._on_feedback, feedback_sub_qos_profile)
         self._status_sub = node.create_subscription(GoalStatusArray, names['status'], self._on_status,
-                                                    status_sub_qos_profile)
+                                                    status_sub_qos_profile, raw=True)
         self._feedback_callbacks: Dict[bytes, Callable[[Any], None]] = {}
         self._handles: Dict[bytes, ClientGoalHandle] = {}
         self._last_status: Dict[bytes, int] = {}  # a status can arrive before the goal response
@@ -103,13 +103,18 @@ class ActionClient:
         if callback is not None:
             callback(msg)
 
-    def _on_status(self, msg: Any) -> None:
+    def _on_status(self, data: bytes) -> None:
+        """Status array, decoded by the fast codec (it grows with every goal the server keeps)."""
+        try:
+            entries = decode_status_array(data)
+        except Exception:  # noqa: BLE001 - a malformed status message is ignored
+            return
         with self._lock:
-            self._last_status = {goal_key(s.goal_info.goal_id): s.status for s in msg.status_list}
-            for status in msg.status_list:
-                handle = self._handles.get(goal_key(status.goal_info.goal_id))
+            self._last_status = {key: status for key, _s, _n, status in entries}
+            for key, status in self._last_status.items():
+                handle = self._handles.get(key)
                 if handle is not None:
-                    handle._status = status.status  # noqa: SLF001
+                    handle._status = status  # noqa: SLF001
 
     # ------------------------------------------------------------------ goals
     def send_goal_async(self, goal: Any, feedback_callback: Optional[Callable[[Any], None]] = None,

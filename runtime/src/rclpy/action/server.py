@@ -17,8 +17,8 @@ from typing import Any, Callable, Dict, List, Optional
 from action_msgs.msg import GoalInfo, GoalStatus, GoalStatusArray
 from action_msgs.srv import CancelGoal
 
-from rclpy.action.common import (FEEDBACK_QOS, SERVICE_QOS, STATUS_QOS, entity_names, goal_key,
-                                 zero_time)
+from rclpy.action.common import (FEEDBACK_QOS, SERVICE_QOS, STATUS_QOS, encode_status_array,
+                                 entity_names, goal_key, zero_time)
 from rclpy.service import Service
 from rclpy.task import Future
 
@@ -63,6 +63,7 @@ class ServerGoalHandle:
         self._goal_info = goal_info
         self._goal_request = goal_request
         self._status = GoalStatus.STATUS_ACCEPTED
+        self._key = goal_key(goal_info.goal_id)
         self._lock = threading.Lock()
         self._terminal_time: Optional[float] = None
 
@@ -313,9 +314,9 @@ class ActionServer:
             return
         with self._lock:
             self._expire()
-            status = [GoalStatus(goal_info=h._goal_info, status=h.status)  # noqa: SLF001
-                      for h in self._goals.values()]
-        self._status_pub.publish(GoalStatusArray(status_list=status))
+            entries = [(key, h._goal_info.stamp.sec, h._goal_info.stamp.nanosec, h.status)  # noqa: SLF001
+                       for key, h in self._goals.items()]
+        self._status_pub.publish(encode_status_array(entries))
 
     def destroy(self) -> None:
         if self._destroyed:
