@@ -29,6 +29,7 @@ def test_memory_reprojects_returns_into_the_body_frame():
     mem.add(np.array([4.0]), np.array([0.0]), np.array([[0.0, 0.0, 0.0]]), np.array([0.0]))
     h = mem.histogram(2.0, 0.0, math.pi / 2)      # moved 2 m ahead, turned left: it is 2 m to the right
     assert h[54] == pytest.approx(2.0) and np.isinf(np.delete(h, 54)).all()   # bin 54 = 270 deg
+    assert mem.body_points(2.0, 0.0, math.pi / 2) == pytest.approx(np.array([[0.0, -2.0]]))
     mem.prune(4.9)
     assert len(mem) == 1
     mem.prune(5.1)

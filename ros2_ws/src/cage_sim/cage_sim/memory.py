@@ -59,6 +59,13 @@ class ReturnMemory:
         """Body-frame bin centres (rad)."""
         return np.arange(self.bins) * (2 * math.pi / self.bins)
 
+    def body_points(self, x: float, y: float, yaw: float) -> np.ndarray:
+        """(K, 2) remembered returns in the body frame at pose (x, y, yaw) (x forward, y left): what a
+        shield or a baseline rolls its manoeuvres out against, beside and behind the vehicle too."""
+        d = self.points - (x, y)
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
     def histogram(self, x: float, y: float, yaw: float) -> np.ndarray:
         """(bins,) nearest remembered return per body-frame sector from pose (x, y, yaw); inf if none."""
         out = np.full(self.bins, np.inf)
