@@ -95,9 +95,10 @@ def test_policy_scan_watchdog_runs_in_sim_time(launch, probe):
 def test_simulator_notices_a_silent_vehicle_once(launch, probe):
     odom_pub = probe.node.create_publisher(Odometry, "/cage/odom", 10)
     node = launch("cage_sim", "sim_node", "-p", "scenario:=study2d", "-p", "seed:=1", "-p", "liveness_timeout:=0.5")
-    assert probe.until(lambda: odom_pub.get_subscription_count() > 0, 20), node.output
+    assert probe.until(lambda: odom_pub.get_subscription_count() > 0, 40), node.output
+    probe.until(lambda: False, 0.5)
     odom_pub.publish(odom(0.0, 0.0, 0.0, 0))
-    assert probe.until(lambda: "the vehicle node is silent" in node.output, 10), node.output
+    assert probe.until(lambda: "the vehicle node is silent" in node.output, 20), node.output
     probe.until(lambda: False, 1.5)
     assert node.output.count("the vehicle node is silent") == 1
     odom_pub.publish(odom(0.0, 0.0, 0.0, S))

@@ -14,7 +14,8 @@ Free-run: the latest setpoint is flown while the clock runs. The watchdog is the
 does not trust the policy: a setpoint is valid for one decision period plus ``setpoint_timeout`` *sim*
 seconds after its stamp, so at any time scale the vehicle holds station (speed 0, heading kept, the
 clock still running) at most ``setpoint_timeout`` sim seconds after the next decision was due, says
-so once, and resumes when fresh setpoints come back.
+so once, and resumes when fresh setpoints come back. A setpoint with speed 0 (the policy's failsafe)
+also holds station: position kept against the current, not a drift.
 
 Restart: a new vehicle node first listens ``resume_wait`` wall seconds for the simulator's latched
 track (``track``); if a mission is under way it resumes from the last judged pose and sim time
@@ -188,9 +189,10 @@ class VehicleNode(Node):
             return
         self.resume()
         speed = min(max(float(sp.speed), 0.0), self.vehicle.speed)
-        # advance: the env's own motion function (exact closed form in a uniform current, substeps in a varying one)
-        self.x, self.y, self.yaw = advance(self.x, self.y, self.yaw, sp.heading, self.dt_ns / 1e9, self.vehicle,
-                                           self.current, self.t_ns / 1e9, speed)
+        if speed > 0.0:   # speed 0 is a failsafe "hold station": station keeping, no drift with the current
+            # advance: the env's own motion function (exact closed form in a uniform current, substeps in a varying one)
+            self.x, self.y, self.yaw = advance(self.x, self.y, self.yaw, sp.heading, self.dt_ns / 1e9, self.vehicle,
+                                               self.current, self.t_ns / 1e9, speed)
         self.t_ns += self.dt_ns
         self.publish_pose()
 
