@@ -53,6 +53,8 @@ def test_vehicle_holds_within_one_sim_second_when_setpoints_stop(launch, probe, 
     else:              # held at most setpoint_timeout after the next decision was due (+ one substep)
         assert moved_until <= int(1.6 * S) and 1.0 < travelled <= 1.61
         assert last_t > 10 * S
+    assert odoms[-1].twist.twist.linear.x == 0.0      # holding: no velocity over ground
+    assert any(o.twist.twist.linear.x > 0.9 for o in odoms)   # flying: ~1 m/s forward (DVL-like, body frame)
     assert len(vehicle_events()) == 1                 # said once
     assert node.output.count("holding station") == 1
 

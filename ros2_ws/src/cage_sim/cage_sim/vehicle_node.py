@@ -37,7 +37,7 @@ from .node_common import check, decision_period_ns, declare, declare_vehicle
 from .node_runner import run_node
 from .ros_convert import EVENT_OUTCOMES, quaternion_to_yaw, stamp_ns, time_msg, yaw_to_quaternion
 from .scenarios import draw_scenario
-from .vehicle import advance
+from .vehicle import advance, velocity_over_ground
 from .watchdog import Silence
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -77,6 +77,7 @@ class VehicleNode(Node):
         self.waiting = Silence(p["liveness_timeout"])      # lockstep: wall seconds at a boundary
         self.stopped_reason: str | None = None
         self.mission_id = 0
+        self.speed_now = 0.0       # through the water, for the odometry's velocity over ground
         self.finished = False
         self.ready = not p["resume"] or p["resume_wait"] == 0
         self.started_wall = time.monotonic()
@@ -189,6 +190,7 @@ class VehicleNode(Node):
             return
         self.resume()
         speed = min(max(float(sp.speed), 0.0), self.vehicle.speed)
+        self.speed_now = speed
         if speed > 0.0:   # speed 0 is a failsafe "hold station": station keeping, no drift with the current
             # advance: the env's own motion function (exact closed form in a uniform current, substeps in a varying one)
             self.x, self.y, self.yaw = advance(self.x, self.y, self.yaw, sp.heading, self.dt_ns / 1e9, self.vehicle,
@@ -230,7 +232,10 @@ class VehicleNode(Node):
         odom.pose.pose.position.x, odom.pose.pose.position.y = float(self.x), float(self.y)
         odom.pose.pose.orientation = yaw_to_quaternion(self.yaw)
         moving = self.setpoint is not None and not self.finished and self.stopped_reason is None
-        odom.twist.twist.linear.x = self.vehicle.speed if moving else 0.0
+        if moving and self.speed_now > 0:   # twist: velocity over ground in the body frame (REP 105), as a DVL
+            v = velocity_over_ground(self.yaw, self.speed_now, self.current.velocity(self.x, self.y, self.t_ns / 1e9))
+            odom.twist.twist.linear.x, odom.twist.twist.linear.y = float(v[0]), float(v[1])
+        # holding station (or not flying): zero over ground
         self.odom_pub.publish(odom)
         tf = TransformStamped()
         tf.header = odom.header
