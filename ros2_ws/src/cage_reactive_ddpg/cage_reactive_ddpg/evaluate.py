@@ -228,8 +228,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="with --matrix: output prefix for .md/.csv/.json "
                                                 "(default out/matrix_<name>)")
     ap.add_argument("--reuse", default=None,
-                    help="with --matrix: a JSON written by an earlier --matrix run with the same matrix, seed, "
-                         "episodes and planner; its drivers' rows are taken from it instead of run again")
+                    help="with --matrix: JSONs (comma-separated) written by earlier --matrix runs with the same "
+                         "matrix, seed, episodes, planner and sensor; their drivers' rows are reused, not run again")
     a = ap.parse_args(argv)
     if a.matrix:
         return matrix_main(a)
@@ -254,15 +254,17 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str) -> list[dict]:
-    """Rows of an earlier run of the same matrix on the same missions (``--reuse``), checked."""
-    if not a.reuse:
-        return []
-    old = json.loads(Path(a.reuse).read_text())
-    for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                      ("motion", motion), ("sensor", sensor)):
-        if old.get(key) != mine:
-            raise ValueError(f"--reuse {a.reuse}: {key} is {old.get(key)!r} there, {mine!r} here")
-    return list(old["rows"])
+    """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked."""
+    rows: list[dict] = []
+    for path in filter(None, (a.reuse or "").split(",")):
+        old = json.loads(Path(path).read_text())
+        for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
+                          ("motion", motion), ("sensor", sensor)):
+            if old.get(key) != mine:
+                raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
+        have = {r["driver"] for r in rows}
+        rows += [r for r in old["rows"] if r["driver"] not in have]
+    return rows
 
 
 def matrix_main(a: argparse.Namespace) -> int:
