@@ -129,6 +129,10 @@ tailer=$!
 
 # Wait for the client; a node that exits first (start-up refused, or a crash mid-mission) ends the
 # run at once: say which, stop the rest, exit 70. `wait -n` returns on any child, and on a signal.
+node_died() {  # node_died <index> <status>: say which node died and why (its last log lines)
+  echo "[run_mission] ${names[$1]} exited with status $2 before the mission ended; stopping the rest" >&2
+  tail -n 5 "$logs/${names[$1]}.log" | sed "s/^/[${names[$1]}] /" >&2
+}
 rc=""
 while [ -z "$rc" ]; do
   wait -n "${pids[@]}" 2>/dev/null
@@ -136,9 +140,8 @@ while [ -z "$rc" ]; do
     pid=${pids[$i]}
     kill -0 "$pid" 2>/dev/null && continue
     wait "$pid"; status=$?
-    if [ "$pid" = "$client" ]; then rc=$status; break; fi
-    echo "[run_mission] ${names[$i]} exited with status $status before the mission ended; stopping the rest" >&2
-    tail -n 5 "$logs/${names[$i]}.log" | sed "s/^/[${names[$i]}] /" >&2
+    if [ "$pid" = "$client" ]; then rc=$status; unset "pids[$i]" "names[$i]"; break; fi
+    node_died "$i" "$status"
     rc=70
     break
   done
@@ -146,7 +149,13 @@ done
 if [ $keep -eq 1 ] && [ "$rc" -ne 70 ]; then
   echo "[run_mission] the graph keeps running (ROS_DOMAIN_ID=$ROS_DOMAIN_ID, action $ns/navigate, goals on" \
        "$goal_topic); Ctrl-C stops it"
-  while :; do sleep 1; done
+  while [ "$rc" -ne 70 ]; do   # until Ctrl-C, or a node dies
+    wait -n "${pids[@]}" 2>/dev/null
+    for i in "${!pids[@]}"; do
+      kill -0 "${pids[$i]}" 2>/dev/null && continue
+      wait "${pids[$i]}"; node_died "$i" $?; rc=70; break
+    done
+  done
 fi
 kill "$tailer" 2>/dev/null; wait "$tailer" 2>/dev/null
 if [ "$rc" -ne 0 ] && [ "$rc" -ne 70 ]; then

@@ -39,7 +39,8 @@ class GraphRig:
                   "-p", f"lockstep:={str(lockstep).lower()}", *extra]
         rrt = ["--params-file", str(CFG / "cage_global_rrt/config/rrt.yaml")]
         self.args = {"policy_node": shared, "rrt_node": rrt + shared, "vehicle_node": shared, "sim_node": shared,
-                     "navigator_node": rrt + shared + ["-r", "goal_pose:=/goal_pose"],
+                     "navigator_node": shared + ["-r", "goal_pose:=/goal_pose", "-p",
+                                                 f"planner_config:={CFG / 'cage_global_rrt/config/rrt.yaml'}"],
                      "mission_client": shared + ["-p", f"timeout:={float(timeout)}",
                                                  "-p", f"png:={self.logdir / 'track.png'}"]}
         self.procs: dict[str, Proc] = {}
