@@ -100,6 +100,26 @@ def test_replan_next_to_a_confirmed_obstacle_leaves_it_first():
     assert len(r.headings) == len(r.waypoints)
 
 
+def test_layer_that_closes_every_way_falls_back_to_the_known_map():
+    """A goal walled in by learnt returns: the plan is made on the known map (as before the
+    layer), not refused, and the message says so."""
+    lay = layer()
+    for _ in range(4):
+        scan(lay, WITH)
+    ob = lay.obstacles()[0]
+    goal = (ob.x + ob.size + 1.2, ob.y)                 # free on the known map, inside the layer's margin
+    lay.cells.update({(int(math.floor(goal[0] + dx)), int(math.floor(goal[1] + dy))): _confirmed(goal[0] + dx, goal[1] + dy)
+                      for dx, dy in ((2.5, 0.0), (0.0, 2.5), (0.0, -2.5), (2.5, 2.5), (2.5, -2.5))})
+    planner = GlobalPlanner(KnownMap.from_world(WITHOUT), PlannerOptions(planner="optimal"))
+    r = plan_with_layer(planner, lay, POSE, goal)
+    assert r.ok and "known map only" in r.message, r.message
+
+
+def _confirmed(x, y):
+    from cage_global_rrt.obstacle_layer import _Cell
+    return _Cell(hits=5, last_hit=1, sx=x, sy=y, n=1)
+
+
 @pytest.mark.parametrize("bad", [dict(cell=0.0), dict(confirm_scans=0), dict(pad=-1.0), dict(forget_scans=1.5)])
 def test_bad_params(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):

@@ -244,10 +244,17 @@ def plan_with_layer(planner: GlobalPlanner, layer: ObstacleLayer | None, pose, g
             planner.set_map(layer.known)   # nothing learnt: the known map itself (setup kept)
         return planner.plan(pose, goal)
     planner.set_map(layer.planning_map(free=(exit_, goal), clearance=clearance))
-    if math.hypot(exit_[0] - pose[0], exit_[1] - pose[1]) <= 1e-9:
-        return planner.plan(pose, goal)    # keeps a heading the pose carries (Dubins)
-    res = planner.plan(exit_, goal)
-    if res.ok and math.hypot(exit_[0] - pose[0], exit_[1] - pose[1]) > 1e-9:
+    moved = math.hypot(exit_[0] - pose[0], exit_[1] - pose[1]) > 1e-9
+    res = planner.plan(exit_, goal) if moved else planner.plan(pose, goal)  # pose keeps a Dubins heading
+    if not res.ok:
+        # the learnt obstacles close every way (or the exit lands on the known map): plan as before
+        # the layer existed rather than not at all; the message says so
+        layered = res.status.name
+        planner.set_map(layer.known)
+        res = planner.plan(pose, goal)
+        res.message += f" (on the known map only: with the obstacle layer {layered})"
+        return res
+    if moved:
         head = np.array([[float(pose[0]), float(pose[1])]])
         yaw = math.atan2(exit_[1] - pose[1], exit_[0] - pose[0])
         res.waypoints = np.vstack((head, res.waypoints))
