@@ -34,10 +34,34 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Sequence
 
-import numba
 import numpy as np
 
 from .world import ObstacleArrays, World
+
+# numba is imported, and every kernel compiled (cached on disk), at the first kernel call, not at
+# import: a process that only needs the sonar's geometry (the policy node: beam angles, LaserScan
+# fields) stays ~60 MB smaller. Each kernel's module global is rebound to its compiled dispatcher,
+# so kernels calling kernels compile against dispatchers.
+_KERNELS: list = []
+
+
+def _njit(**options):
+    def wrap(fn):
+        _KERNELS.append((fn, options))
+
+        def first_call(*args):
+            _compile_kernels()
+            return globals()[fn.__name__](*args)
+        first_call.__name__, first_call.__wrapped__ = fn.__name__, fn
+        return first_call
+    return wrap
+
+
+def _compile_kernels() -> None:
+    import numba
+    for fn, options in _KERNELS:
+        if not hasattr(globals()[fn.__name__], "py_func"):
+            globals()[fn.__name__] = numba.njit(**options)(fn)
 
 PROFILE_NAMES = ("study", "multibeam360", "fls", "scanning")
 
@@ -450,7 +474,7 @@ class PackedWorlds:
         )
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _ray_net(px, py, dx, dy, r):
     b = px * dx + py * dy
     c = px * px + py * py - r * r
@@ -459,7 +483,7 @@ def _ray_net(px, py, dx, dy, r):
     return -b + math.sqrt(b * b - c)
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _ray_circle(px, py, dx, dy, cx, cy, r):
     ox, oy = px - cx, py - cy
     c = ox * ox + oy * oy - r * r
@@ -474,7 +498,7 @@ def _ray_circle(px, py, dx, dy, cx, cy, r):
     return -b - math.sqrt(disc)
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _ray_square(px, py, dx, dy, cx, cy, h):
     tmin, tmax = -math.inf, math.inf
     lo, hi, p, d = cx - h, cx + h, px, dx
@@ -494,7 +518,7 @@ def _ray_square(px, py, dx, dy, cx, cy, h):
     return max(tmin, 0.0)
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _scan_into(px, py, yaw, angles, net_r, squares, s0, s1, circles, c0, c1, max_range, out, keep):
     # Cull once per scan: an obstacle whose nearest point is beyond range cannot be hit by any beam.
     nk = 0
@@ -526,14 +550,14 @@ def _scan_into(px, py, yaw, angles, net_r, squares, s0, s1, circles, c0, c1, max
         out[i] = best if best <= max_range else math.inf
 
 
-@numba.njit(cache=True)
+@_njit(cache=True)
 def _scan_one(px, py, yaw, angles, net_r, squares, circles, max_range, out):
     keep = np.empty(squares.shape[0] + circles.shape[0], dtype=np.int64)
     _scan_into(px, py, yaw, angles, net_r, squares, 0, squares.shape[0], circles, 0,
                circles.shape[0], max_range, out, keep)
 
 
-@numba.njit(cache=True)
+@_njit(cache=True)
 def _scan_batch(poses, angles, net_r, world_of, squares, sq_off, circles, ci_off, max_range, out):
     keep = np.empty(squares.shape[0] + circles.shape[0], dtype=np.int64)
     for b in range(poses.shape[0]):
@@ -544,12 +568,12 @@ def _scan_batch(poses, angles, net_r, world_of, squares, sq_off, circles, ci_off
 
 # --------------------------------------------------------------------------- beams with width / deformed net
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _wrap(a):
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _ray_poly(px, py, dx, dy, poly, p0, p1, max_range, r_in, r_out):
     """Ray from inside the deformed net to its wall; 0 when starting outside, inf beyond ``max_range``.
 
@@ -600,7 +624,7 @@ def _ray_poly(px, py, dx, dy, poly, p0, p1, max_range, r_in, r_out):
     return best if best <= max_range else math.inf
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _radii(poly, p0, p1):
     r_in, r_out = math.inf, 0.0
     for k in range(p0, p1):
@@ -610,7 +634,7 @@ def _radii(poly, p0, p1):
     return r_in, r_out
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _net_cone(px, py, a, hw, net_r, poly, p0, p1, max_range, r_in, r_out):
     """Nearest net echo within +-hw of direction a. Round net: exact (the nearest wall point lies
     toward the outward direction, else on the cone edge nearest it). Deformed net: rays 1 deg apart."""
@@ -635,7 +659,7 @@ def _net_cone(px, py, a, hw, net_r, poly, p0, p1, max_range, r_in, r_out):
     return min(t1, t2)
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _circle_cone(px, py, a, hw, cx, cy, r):
     """Nearest point of a circle within the cone (exact: convex shape, so it is the closest point when
     that lies in the cone, else on one of the cone's edge rays)."""
@@ -652,7 +676,7 @@ def _circle_cone(px, py, a, hw, cx, cy, r):
     return min(t1, t2)
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _square_cone(px, py, a, hw, cx, cy, h):
     qx = min(max(px, cx - h), cx + h)
     qy = min(max(py, cy - h), cy + h)
@@ -669,7 +693,7 @@ def _square_cone(px, py, a, hw, cx, cy, h):
     return min(t1, t2)
 
 
-@numba.njit(cache=True, fastmath=False)
+@_njit(cache=True, fastmath=False)
 def _cone_into(px, py, yaw, angles, hw, net_r, poly, p0, p1, squares, s0, s1, circles, c0, c1,
                max_range, out, keep):
     # Cull once per scan by range, and note each kept obstacle's bearing and angular half-size, so a
@@ -716,14 +740,14 @@ def _cone_into(px, py, yaw, angles, hw, net_r, poly, p0, p1, squares, s0, s1, ci
         out[i] = best if best <= max_range else math.inf
 
 
-@numba.njit(cache=True)
+@_njit(cache=True)
 def _scan_one_cone(px, py, yaw, angles, hw, net_r, poly, squares, circles, max_range, out):
     keep = np.empty(squares.shape[0] + circles.shape[0], dtype=np.int64)
     _cone_into(px, py, yaw, angles, hw, net_r, poly, 0, poly.shape[0], squares, 0, squares.shape[0],
                circles, 0, circles.shape[0], max_range, out, keep)
 
 
-@numba.njit(cache=True)
+@_njit(cache=True)
 def _scan_batch_cone(poses, angles, hw, net_r, world_of, polys, po_off, squares, sq_off, circles, ci_off,
                      max_range, out):
     keep = np.empty(squares.shape[0] + circles.shape[0], dtype=np.int64)
@@ -734,7 +758,7 @@ def _scan_batch_cone(poses, angles, hw, net_r, world_of, polys, po_off, squares,
                    sq_off[w], sq_off[w + 1], circles, ci_off[w], ci_off[w + 1], max_range, out[b], keep)
 
 
-@numba.njit(cache=True)
+@_njit(cache=True)
 def _cast_beams(origins, angles, hw, net_r, poly, squares, circles, max_range, out):
     keep = np.empty(squares.shape[0] + circles.shape[0], dtype=np.int64)
     one = np.empty(1)
