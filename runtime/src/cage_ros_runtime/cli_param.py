@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import time
 from typing import Any
 
 import yaml
@@ -12,7 +13,17 @@ from cage_ros_runtime.cli_common import Tool, fail, hidden
 _TIMEOUT = 10.0
 
 
+def _require_node(tool: Tool, node_name: str, wait: float = 2.0) -> None:
+    """ros2cli checks the graph first: an unknown node is 'Node not found' at once, not after a timeout."""
+    deadline = time.monotonic() + wait
+    while node_name not in _node_names(tool):
+        if time.monotonic() >= deadline:
+            raise LookupError(f'Node not found: {node_name}')
+        time.sleep(0.05)
+
+
 def _call(tool: Tool, executor: Any, srv_type: Any, node_name: str, service: str, request: Any) -> Any:
+    _require_node(tool, node_name)
     client = tool.node.create_client(srv_type, f'{node_name}/{service}')
     if not client.wait_for_service(timeout_sec=_TIMEOUT):
         raise LookupError(f'Node not found: {node_name}')
