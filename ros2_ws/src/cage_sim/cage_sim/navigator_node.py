@@ -87,6 +87,8 @@ class NavigatorNode(Node):
         self.create_subscription(MissionEvent, "mission_event", self.on_event, 10)
         self.create_subscription(HeadingSetpoint, "heading_setpoint", self.on_setpoint, 10)
         self.create_subscription(PoseStamped, "goal_pose", self.on_goal_pose, 10)
+        # a restarted navigator goes on counting from the last mission the graph saw (latched)
+        self.create_subscription(Mission, "mission", self.on_mission_seen, LATCHED)
         self.create_timer(self.p["retry_period"], self.retry_request)
         self.server = None
         if ActionServer is None:
@@ -98,6 +100,11 @@ class NavigatorNode(Node):
                                        cancel_callback=self.on_cancel)
         self.get_logger().info(f"navigator ready: action 'navigate', topic 'goal_pose'; goals checked with "
                                f"clearance {self.margin():.2f} m")
+
+    def on_mission_seen(self, msg: Mission) -> None:
+        if msg.id >= self.next_id:
+            self.next_id = msg.id + 1
+            self.get_logger().debug(f"missions go on from id {self.next_id}")
 
     # --- goal checks ---------------------------------------------------------------------------
     def margin(self) -> float:
