@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -105,6 +106,8 @@ def main() -> None:
             r = fn(rep)
             if r is not None:
                 results[name].append(rates(r))
+                print(f"[{name} rep {rep}] {results[name][-1]['env_steps_per_s']:.1f} env steps/s, "
+                      f"{results[name][-1]['updates_per_s']:.1f} updates/s", file=sys.stderr, flush=True)
     summary = {}
     for name, rs in results.items():
         if rs:
