@@ -81,7 +81,7 @@ class _Tool:
         from rclpy.node import Node
         rclpy.init(args=[])
         self.rclpy = rclpy
-        self.node = Node(f'_ros2cli_{os.getpid()}')
+        self.node = Node(f'_ros2cli_{os.getpid()}', start_parameter_services=False, enable_rosout=False)
         self._observer = self.node._observer()  # noqa: SLF001 - start discovering right away
 
     def observer(self) -> Any:

@@ -42,6 +42,7 @@ class Context:
         self._domain: Optional['Domain'] = None
         self._graph: Optional['GraphPublisher'] = None
         self._observer: Optional['GraphObserver'] = None
+        self._graph_batch = 0
         self._callbacks: List[Callable[[], None]] = []
         self._args = _arguments.RosArguments()
         self._argv: List[str] = []
@@ -173,9 +174,10 @@ class Context:
         return self._observer
 
     def _graph_changed(self) -> None:
-        """Republish ros_discovery_info after a node or endpoint was created or destroyed."""
+        """Republish ros_discovery_info after a node or endpoint was created or destroyed (once for a
+        whole node construction: a node makes ~16 endpoints before user code runs)."""
         graph = self._graph
-        if graph is not None:
+        if graph is not None and not self._graph_batch:
             graph.publish(list(self._nodes))
 
     def _track_node(self, node: object) -> None:

@@ -93,6 +93,17 @@ class Node:
 
         self._domain = self._context._get_domain()  # noqa: SLF001
         self._context._track_node(self)  # noqa: SLF001
+        self._context._graph_batch += 1  # noqa: SLF001 - one ros_discovery_info update at the end
+        try:
+            self._init_entities(enable_rosout, start_parameter_services,
+                                automatically_declare_parameters_from_overrides)
+        finally:
+            self._context._graph_batch -= 1  # noqa: SLF001
+        self._context._graph_changed()  # noqa: SLF001
+
+    def _init_entities(self, enable_rosout: bool, start_parameter_services: bool,
+                       automatically_declare_parameters_from_overrides: bool) -> None:
+        """The entities every node has, and its declared overrides / use_sim_time."""
         self._parameter_event_publisher: Optional[Publisher] = None
         self._rosout_publisher: Optional[Publisher] = None
         self._rosout_sink: Any = None
@@ -109,7 +120,6 @@ class Node:
         self._clock_sub: Optional[Subscription] = None
         if self.get_parameter('use_sim_time').value:
             self._enable_sim_time()
-        self._context._graph_changed()  # noqa: SLF001
 
     def _start_ros_interfaces(self, enable_rosout: bool, start_parameter_services: bool) -> None:
         """What every rclpy node has: /parameter_events, /rosout and the parameter services."""
