@@ -55,3 +55,20 @@ def test_service_in_process_with_wire_header(context: Any) -> None:
     assert reqrep.unwrap(reqrep.wrap(7, 9, b'\x00\x01\x00\x00abcd')) == (7, 9, b'\x00\x01\x00\x00abcd')
     assert reqrep.id_string(bytes(range(16))) == ' 0.1.2.3.4.5.6.7.8.9.a.b.c.d.e.f'
     node.destroy_node()
+
+
+def test_graph_sees_services_and_clients(context: Any) -> None:
+    from rclpy.node import Node
+    from std_srvs.srv import Trigger
+
+    node = Node('grapher', context=context)
+    node.create_service(Trigger, 'poke', lambda req, resp: resp)
+    node.create_client(Trigger, 'poke')
+    import time
+    deadline = time.monotonic() + 20
+    while node.count_services('poke') < 1 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert node.count_services('poke') == 1 and node.count_clients('poke') == 1
+    assert ('/poke', ['std_srvs/srv/Trigger']) in node.get_service_names_and_types()
+    assert node.wait_for_node('/grapher', 10) and '/grapher' in node.get_fully_qualified_node_names()
+    node.destroy_node()

@@ -113,6 +113,7 @@ class GraphObserver:
     def endpoints(self, services: bool = False) -> list[Endpoint]:
         """Every alive ROS topic endpoint (`rt/` topics with mangled type names) seen so far; with
         `services`, the request/reply endpoints of services instead."""
+        self._young_wait()
         out = []
         for reader, kind in ((self._pub, 'publisher'), (self._sub, 'subscription')):
             for sample in reader.read(N=10000):
@@ -178,6 +179,12 @@ class GraphObserver:
                 info = messages.deserialize(data, DISCOVERY_TYPE)
                 self._node_info[bytes(bytearray(info.gid.data))] = info
 
+    def _young_wait(self) -> None:
+        """A fresh participant has not heard SPDP from its peers yet: give discovery 0.3 s once."""
+        young = 0.3 - (time.monotonic() - self._created)
+        if young > 0:
+            time.sleep(young)
+
     def settle(self, timeout: float = 1.0) -> None:
         """Wait (bounded) until every discovered ROS participant's ros_discovery_info has arrived.
 
@@ -185,9 +192,7 @@ class GraphObserver:
         delivered, so an immediate query would miss its nodes.  ros2cli without a daemon waits too.
         A fresh observer first gives discovery a moment (SPDP) to find the remote participants.
         """
-        young = 0.3 - (time.monotonic() - self._created)
-        if young > 0:
-            time.sleep(young)
+        self._young_wait()
         deadline = time.monotonic() + timeout
         while True:
             self._take_node_info()

@@ -495,6 +495,37 @@ class Node:
     def get_node_names_and_namespaces(self) -> List[Tuple[str, str]]:
         return [(n, ns) for ns, n in self._observer().nodes()]
 
+    def get_fully_qualified_node_names(self) -> List[str]:
+        return [(ns.rstrip('/') + '/' + n) for ns, n in self._observer().nodes()]
+
+    def wait_for_node(self, fully_qualified_node_name: str, timeout: float) -> bool:
+        """Wait until the node is in the graph (polls discovery); False after `timeout` seconds."""
+        import time
+        name = fully_qualified_node_name if fully_qualified_node_name.startswith('/') \
+            else '/' + fully_qualified_node_name
+        deadline = time.monotonic() + timeout
+        while name not in self.get_fully_qualified_node_names():
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.05)
+        return True
+
+    def get_service_names_and_types(self) -> List[Tuple[str, List[str]]]:
+        out: Dict[str, set] = {}
+        for e in self._observer().endpoints(services=True):
+            out.setdefault(e.topic, set()).add(e.ros_type)
+        return sorted((name, sorted(types)) for name, types in out.items())
+
+    def count_services(self, service_name: str) -> int:
+        name = self.resolve_service_name(service_name)
+        return sum(1 for e in self._observer().endpoints(services=True)
+                   if e.topic == name and e.kind == 'subscription' and e.dds_topic.startswith('rq/'))
+
+    def count_clients(self, service_name: str) -> int:
+        name = self.resolve_service_name(service_name)
+        return sum(1 for e in self._observer().endpoints(services=True)
+                   if e.topic == name and e.kind == 'publisher' and e.dds_topic.startswith('rq/'))
+
     def count_publishers(self, topic_name: str) -> int:
         name = self.resolve_topic_name(topic_name)
         return sum(1 for e in self._observer().endpoints() if e.kind == 'publisher' and e.topic == name)
