@@ -47,3 +47,13 @@ def test_progress_counts_distance_decisions_and_shield():
     assert p.travelled == pytest.approx(math.sqrt(2))
     assert p.distance_remaining() == pytest.approx(math.hypot(4, 4) + math.hypot(5, 5))
     assert p.elapsed_ns == 1_000_000_000
+
+
+def test_free_domain_sees_a_participant(probe, ros_env):
+    """run_mission.sh's domain check: a domain with a participant on it (the probe's) is not free."""
+    import importlib.util
+    from graph_testlib import ROOT
+    spec = importlib.util.spec_from_file_location("free_domain", ROOT / "scripts" / "free_domain.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.others_on(int(ros_env["ROS_DOMAIN_ID"]), 1.0) >= 1
