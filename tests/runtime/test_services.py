@@ -72,3 +72,49 @@ def test_graph_sees_services_and_clients(context: Any) -> None:
     assert ('/poke', ['std_srvs/srv/Trigger']) in node.get_service_names_and_types()
     assert node.wait_for_node('/grapher', 10) and '/grapher' in node.get_fully_qualified_node_names()
     node.destroy_node()
+
+
+def test_reply_waits_until_the_clients_reader_is_matched(context: Any, ros_env: dict) -> None:
+    """rmw_cyclonedds' rule: a reply goes out only once the reply writer has matched a reader with the
+    requesting client's `clientid`; until then it is kept (not dropped)."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.qos import qos_profile_services_default
+    from rclpy.signals import SignalHandlerOptions
+    from std_srvs.srv import SetBool
+
+    from cage_ros_runtime import messages, reqrep
+    from cage_ros_runtime.dds import RawReader, endpoint_qos
+
+    node = Node('late_reply', context=context)
+    srv = node.create_service(SetBool, 'late', lambda req, resp: resp)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    srv.send_response(SetBool.Response(message='kept'), (7, 1, 'the-late-client', True))
+    assert len(srv._pending) == 1  # noqa: SLF001 - no reader with that clientid yet
+
+    other = Context()
+    rclpy.init(args=[], context=other, domain_id=int(ros_env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        domain = other._get_domain()  # noqa: SLF001
+        reader = RawReader.create(domain, 'rr/lateReply', 'std_srvs/srv/SetBool_Response', endpoint_qos(
+            qos_profile_services_default, 'std_srvs/srv/SetBool', writer=False,
+            user_data='clientid=the-late-client;'), 8)
+        got: list = []
+
+        def received() -> bool:
+            got.extend(reader.take())
+            return bool(got)
+
+        assert spin_until(executor, received, 20)
+        guid, seq, body = reqrep.unwrap(got[0])
+        assert (guid, seq) == (7, 1)
+        assert messages.deserialize(body, 'std_srvs/srv/SetBool_Response').message == 'kept'
+        assert srv._pending == []  # noqa: SLF001
+        reader.close()
+    finally:
+        other.try_shutdown()
+    node.destroy_node()
