@@ -145,3 +145,18 @@ def test_refused_override_type_fails_the_process(spawn) -> None:
     p = spawn('talker.py', '--ros-args', '-p', 'period:=slow')
     assert p.finish(20) != 0
     assert 'InvalidParameterTypeException' in p.output
+
+
+def test_bad_parameter_values_are_refused_at_parse_naming_them(tmp_path) -> None:
+    import pytest
+
+    from cage_ros_runtime.arguments import RosArgumentError, parse
+    with pytest.raises(RosArgumentError, match=r"'-p gains:=\[1, a\]': a list mixing types"):
+        parse(['--ros-args', '-p', 'gains:=[1, a]'])
+    f = tmp_path / 'p.yaml'
+    f.write_text('/**:\n  ros__parameters:\n    route: [{x: 1}]\n')
+    with pytest.raises(RosArgumentError, match="parameter 'route'"):
+        parse(['--ros-args', '--params-file', str(f)])
+    f.write_text('talker:\n  period: 0.1\n')
+    with pytest.raises(RosArgumentError, match="'talker/period' is not a node mapping"):
+        parse(['--ros-args', '--params-file', str(f)])

@@ -68,6 +68,16 @@ def parse_value(text: str) -> Any:
     return value
 
 
+def _check_value(value: Any, where: str) -> None:
+    """A parameter value rcl can hold (scalars or a list of one type); rcl refuses the rest at init."""
+    from rclpy.parameter import Parameter
+    try:
+        Parameter.Type.from_parameter_value(value)
+    except TypeError:
+        kind = 'a list mixing types' if isinstance(value, list) else type(value).__name__
+        raise RosArgumentError(f'{where}: {kind} is not a parameter value ({value!r})') from None
+
+
 def split_ros_args(args: list[str]) -> tuple[list[str], list[str]]:
     """(ROS arguments, the rest), honouring multiple `--ros-args` sections closed by `--`."""
     ros, rest = [], []
@@ -97,9 +107,14 @@ def parse(args: list[str] | None) -> RosArguments:
                 raise RosArgumentError(f"'{flag}' needs an argument") from None
         if arg in ('-p', '--param'):
             node, name, value = _split_rule(value_of(arg), arg)
-            out.param_rules.append((node, {name: parse_value(value)}))
+            parsed = parse_value(value)
+            _check_value(parsed, f"'{arg} {name}:={value}'")
+            out.param_rules.append((node, {name: parsed}))
         elif arg == '--params-file':
-            for pattern, params in load_params_file(value_of(arg)):
+            path = value_of(arg)
+            for pattern, params in load_params_file(path):
+                for name, parsed in params.items():
+                    _check_value(parsed, f"--params-file {path!r}: parameter '{name}' of '{pattern}'")
                 out.param_rules.append((pattern, params))
         elif arg in ('-r', '--remap'):
             node, src, dst = _split_rule(value_of(arg), arg)
