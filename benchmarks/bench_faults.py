@@ -55,7 +55,7 @@ def first_hold(poses, after_ns: int, hold_wall: float = 0.5) -> int | None:
 def run_one(mode: str, node: str, fault: str, at: float, pause: float, wait: float, domain: int, logdir: Path) -> dict:
     from cage_planner_msgs.msg import HeadingSetpoint
     from nav_msgs.msg import Odometry
-    from cage_sim.ros_convert import stamp_ns
+    from cage_sim.ros_convert import EVENT_OUTCOMES, stamp_ns
     from graphrig import GraphRig
 
     rig = GraphRig(logdir, domain, time_scale=20.0, lockstep=(mode == "lockstep"), timeout=120.0)
@@ -88,6 +88,9 @@ def run_one(mode: str, node: str, fault: str, at: float, pause: float, wait: flo
         if back is None:
             rig.idle(2.0)
         held = first_hold(poses, t_fault_ns)
+        ends = [stamp_ns(e.header.stamp) for e in rig.events if e.event in EVENT_OUTCOMES]
+        if held is not None and ends and held >= ends[0]:
+            held = None   # the hold after the outcome is the mission's end, not the fault's doing
         # the first decision that did not come: one period after the last setpoint flown before the fault
         due = max((st for w, st in arrivals if w <= fault_wall), default=0) + PERIOD_NS
         if node == "vehicle_node" and fault != "restart":

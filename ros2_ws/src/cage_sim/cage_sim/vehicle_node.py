@@ -12,9 +12,10 @@ so only wall time passes) says so once on ``mission_event`` (FAILSAFE) and keeps
 
 Free-run: the latest setpoint is flown while the clock runs. The watchdog is the vehicle's own and
 does not trust the policy: a setpoint is valid for one decision period plus ``setpoint_timeout`` *sim*
-seconds after its stamp, so at any time scale the vehicle holds station (speed 0, heading kept, the
-clock still running) at most ``setpoint_timeout`` sim seconds after the next decision was due, says
-so once, and resumes when fresh setpoints come back. A setpoint with speed 0 (the policy's failsafe)
+seconds after its stamp, so at any time scale the vehicle holds station (speed 0, heading kept) at
+most ``setpoint_timeout`` sim seconds after the next decision was due, says so once, and resumes when
+fresh setpoints come back. While it holds, the clock stands (as in lockstep) and the pose is
+republished, so a restarted node finds the mission where it was, not run down by the judge's timeout. A setpoint with speed 0 (the policy's failsafe)
 also holds station: position kept against the current, not a drift.
 
 Restart: a new vehicle node first listens ``resume_wait`` wall seconds for the simulator's latched
@@ -183,10 +184,10 @@ class VehicleNode(Node):
         elif sp is None:
             return  # the mission has not started: the clock stands at zero
         elif self.t_ns - stamp_ns(sp.header.stamp) > self.valid_ns:
+            # hold station with the clock standing, as lockstep does: the mission is not run down by the
+            # judge's timeout while a node restarts; the pose is republished so it can decide again
             self.hold(f"no fresh setpoint since t={stamp_ns(sp.header.stamp) / 1e9:.1f} s "
                       f"(now t={self.t_ns / 1e9:.1f} s)")
-            self.t_ns += self.dt_ns   # the world goes on; the vehicle holds station in it
-            self.publish_pose()
             return
         self.resume()
         speed = min(max(float(sp.speed), 0.0), self.vehicle.speed)
@@ -219,7 +220,8 @@ class VehicleNode(Node):
         """While the clock stands (before the mission, waiting, or after it) late joiners still see us."""
         if not self.ready:
             return
-        standing = self.finished or (self.t_ns % self.period_ns == 0 and (self.p["lockstep"] or self.setpoint is None))
+        standing = self.finished or self.stopped_reason is not None or (
+            self.t_ns % self.period_ns == 0 and (self.p["lockstep"] or self.setpoint is None))
         if standing:
             self.publish_pose()
 
