@@ -16,7 +16,7 @@ def test_action_goal_feedback_result_cancel_reject(spawn: Callable[..., Any], co
     from rclpy.node import Node
 
     server = spawn('fibonacci_server.py')
-    assert server.read_until('READY', 20), server.output
+    assert server.read_until('READY', 60), server.output
     node = Node('fib_client', context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)

@@ -46,7 +46,7 @@ def one_line_error(result: subprocess.CompletedProcess) -> bool:
 def test_param_list_get_set_dump(spawn: Callable[..., Any], ros_env: dict, tmp_path: Path, capsys: Any,
                                  monkeypatch: Any) -> None:
     node = spawn('param_node.py', '--ros-args', '-r', '__ns:=/cage')
-    assert node.read_until('READY', 20), node.output
+    assert node.read_until('READY', 60), node.output
     ros2_ = InProcess(ros_env, capsys, monkeypatch)
     listed = ros2_('param', 'list', '/cage/param_node')
     assert listed.returncode == 0, listed.stderr
@@ -76,7 +76,7 @@ def test_service_and_action_verbs(spawn: Callable[..., Any], ros_env: dict, caps
                                   monkeypatch: Any) -> None:
     fib = spawn('fibonacci_server.py')
     srv = spawn('service_server.py')
-    assert fib.read_until('READY', 20) and srv.read_until('READY', 20)
+    assert fib.read_until('READY', 60) and srv.read_until('READY', 60)
     ros2_ = InProcess(ros_env, capsys, monkeypatch)
     services = ros2_('service', 'list', '-t')
     assert '/set_flag [std_srvs/srv/SetBool]' in services.stdout.splitlines()
@@ -107,7 +107,7 @@ def test_topic_info_verbose_warns_about_incompatible_qos(spawn: Callable[..., An
                                                         capsys: Any, monkeypatch: Any) -> None:
     ros2_ = InProcess(ros_env, capsys, monkeypatch)
     talker = spawn('talker.py', '--ros-args', '-p', 'reliable:=false')
-    assert talker.read_until('READY', 20)
+    assert talker.read_until('READY', 60)
     echo = spawn([ROS2, 'topic', 'echo', '/chatter', '--qos-reliability', 'reliable', '--timeout', '30'])
     info = None
     for _ in range(10):

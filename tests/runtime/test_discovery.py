@@ -57,7 +57,7 @@ def test_localhost_only_discovery_finds_peers(spawn: Callable[..., Any], ros_env
                                               context: Any) -> None:
     env = dict(ros_env, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     talker = spawn('talker.py', env=env)
-    assert talker.read_until('READY', 20), talker.output
+    assert talker.read_until('READY', 60), talker.output
     monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     assert _listen(context, 20)
 
@@ -65,7 +65,7 @@ def test_localhost_only_discovery_finds_peers(spawn: Callable[..., Any], ros_env
 def test_discovery_off_finds_nobody(spawn: Callable[..., Any], ros_env: dict, monkeypatch: Any,
                                     context: Any) -> None:
     talker = spawn('talker.py', env=dict(ros_env, ROS_AUTOMATIC_DISCOVERY_RANGE='OFF'))
-    assert talker.read_until('READY', 20), talker.output
+    assert talker.read_until('READY', 60), talker.output
     monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'OFF')
     assert _listen(context, 2.0) == []
 
@@ -73,7 +73,7 @@ def test_discovery_off_finds_nobody(spawn: Callable[..., Any], ros_env: dict, mo
 def test_first_graph_query_sees_remote_nodes(spawn: Callable[..., Any], context: Any) -> None:
     from rclpy.node import Node
     talker = spawn('talker.py', '--ros-args', '-r', '__ns:=/remote')
-    assert talker.read_until('READY', 20), talker.output
+    assert talker.read_until('READY', 60), talker.output
     node = Node('asker', context=context)
     assert ('talker', '/remote') in node.get_node_names_and_namespaces()  # the very first query
     node.destroy_node()
@@ -88,7 +88,7 @@ def test_best_available_subscription_gets_latched_data(spawn: Callable[..., Any]
 
     from runtime_testlib import spin_until
     talker = spawn('talker.py', '--ros-args', '-p', 'latched:=true', '-p', 'text:=the map')
-    assert talker.read_until('READY', 20), talker.output
+    assert talker.read_until('READY', 60), talker.output
     node = Node('late', context=context)
     assert spin_until(SingleThreadedExecutor(context=context), lambda: node.count_publishers('chatter') > 0, 20)
     got: list = []

@@ -24,7 +24,7 @@ def test_parameter_services_and_events(spawn: Callable[..., Any], context: Any) 
     from rclpy.node import Node
 
     proc = spawn('param_node.py', '--ros-args', '-r', '__ns:=/cage')
-    assert proc.read_until('READY', 20), proc.output
+    assert proc.read_until('READY', 60), proc.output
     node = Node('param_tool', context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
@@ -77,7 +77,7 @@ def test_rosout_carries_node_logs(spawn: Callable[..., Any], context: Any) -> No
     from rclpy.qos import qos_profile_rosout_default
 
     proc = spawn('param_node.py')
-    assert proc.read_until('READY', 20), proc.output
+    assert proc.read_until('READY', 60), proc.output
     assert qos_profile_rosout_default.lifespan.nanoseconds == 10 * 10**9
     node = Node('log_reader', context=context)
     logs: list = []
@@ -97,7 +97,7 @@ def test_clock_drives_sim_time_and_timers(spawn: Callable[..., Any], context: An
     from rosgraph_msgs.msg import Clock
 
     proc = spawn('param_node.py', '--ros-args', '-p', 'use_sim_time:=true')
-    assert proc.read_until('READY', 20), proc.output
+    assert proc.read_until('READY', 60), proc.output
     node = Node('clock_pub', context=context)
     pub = node.create_publisher(Clock, '/clock', 10)
     import time

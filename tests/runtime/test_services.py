@@ -13,7 +13,7 @@ def test_service_call_across_processes(spawn: Callable[..., Any], context: Any) 
     from std_srvs.srv import SetBool, Trigger
 
     server = spawn('service_server.py')
-    assert server.read_until('READY', 20), server.output
+    assert server.read_until('READY', 60), server.output
     node = Node('caller', context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
