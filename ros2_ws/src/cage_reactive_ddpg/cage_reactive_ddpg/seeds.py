@@ -125,7 +125,7 @@ def table(s: dict) -> str:
     return "\n".join(lines)
 
 
-def _curve(run: Path, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _curve(run: Path, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
     from .train import read_rows
     rows = read_rows(run / "episodes.csv", 10 ** 12)
     if len(rows) < 2:
@@ -134,7 +134,7 @@ def _curve(run: Path, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] 
     steps = np.array([r["step"] for r in rows], float)
     rew = np.convolve([r["reward"] for r in rows], np.ones(k) / k, mode="valid")
     suc = np.convolve([r["success"] for r in rows], np.ones(k) / k, mode="valid")
-    return steps[k - 1:], rew, suc
+    return steps[k - 1:], rew, suc, k
 
 
 def plot_band(runs: list[Path], path: Path, window: int = 100) -> None:
@@ -149,13 +149,14 @@ def plot_band(runs: list[Path], path: Path, window: int = 100) -> None:
     if hi <= lo:
         return
     grid = np.linspace(lo, hi, 200)
+    k = min(c[3] for c in curves)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for ax, j, label in ((axes[0], 1, "reward"), (axes[1], 2, "success rate")):
         ys = np.array([np.interp(grid, c[0], c[j]) for c in curves])
         ax.fill_between(grid, ys.min(0), ys.max(0), alpha=0.3, label=f"min-max over {len(curves)} seeds")
         ax.plot(grid, ys.mean(0), lw=1.8, label="mean")
         ax.set_xlabel("env steps")
-        ax.set_ylabel(f"{label} (moving average, {window} episodes)")
+        ax.set_ylabel(f"{label} (moving average, {k} episodes)")
         ax.legend()
     fig.suptitle(f"{len(curves)} seeds")
     fig.tight_layout()
