@@ -59,24 +59,25 @@ def fly(sc, use_layer: bool, opts: PlannerOptions, step: float, stop: float, max
     pos = np.asarray(sc.start[:2], dtype=float)
     res = planner.plan(pos, goal)
     if not res.ok:
-        return dict(reached=False, replans=0, reentries=0, failed=1, times=[], travelled=0.0)
+        return dict(reached=False, replans=0, reentries=0, failed=1, fallbacks=0, reentries_layered=0, times=[],
+                    travelled=0.0)
     route, i, t, travelled = res.waypoints, 1, 0.0, 0.0
-    replans = reentries = failed = 0
+    replans = reentries = failed = fallbacks = reentries_layered = 0
     times = []
     yaw = math.atan2(*(route[1] - route[0])[::-1])
     while True:
         layer.update((pos[0], pos[1], yaw), sonar.scan(sc.world, pos[0], pos[1], yaw, t), sonar.angles,
                      sonar.max_range)
         if math.dist(pos, goal) < 1e-6:
-            return dict(reached=True, replans=replans, reentries=reentries, failed=failed, times=times,
-                        travelled=travelled)
+            return dict(reached=True, replans=replans, reentries=reentries, failed=failed, fallbacks=fallbacks,
+                        reentries_layered=reentries_layered, times=times, travelled=travelled)
         target = route[i]
         d = math.dist(pos, target)
         nxt = target if d <= step else pos + (target - pos) * (step / d)
         if sc.world.clearance(nxt[0], nxt[1], t + step) < stop:
             if replans >= max_replans:
-                return dict(reached=False, replans=replans, reentries=reentries, failed=failed, times=times,
-                            travelled=travelled)
+                return dict(reached=False, replans=replans, reentries=reentries, failed=failed, fallbacks=fallbacks,
+                        reentries_layered=reentries_layered, times=times, travelled=travelled)
             replans += 1
             t0 = time.perf_counter()
             if not use_layer:
@@ -85,12 +86,15 @@ def fly(sc, use_layer: bool, opts: PlannerOptions, step: float, stop: float, max
             times.append(time.perf_counter() - t0)
             if not res.ok:
                 failed += 1
-                return dict(reached=False, replans=replans, reentries=reentries, failed=failed, times=times,
-                            travelled=travelled)
+                return dict(reached=False, replans=replans, reentries=reentries, failed=failed, fallbacks=fallbacks,
+                        reentries_layered=reentries_layered, times=times, travelled=travelled)
             seen = confirmed_returns(layer)
             d_now = min_dist_to_points(np.vstack((pos, pos)), seen)
+            fell_back = "known map only" in res.message
+            fallbacks += fell_back
             if min_dist_to_points(res.waypoints, seen) < min(opts.clearance, d_now) - 0.05:
                 reentries += 1
+                reentries_layered += not fell_back
             route, i = res.waypoints, 1
             t += 1.0   # the scan spent deciding
             continue
@@ -117,14 +121,15 @@ def main(argv=None) -> int:
     sonar = make_sonar("study")
     rows = {}
     for use_layer in (False, True):
-        agg = dict(cages=0, reached=0, replans=0, reentries=0, failed=0, times=[], stuck=0)
+        agg = dict(cages=0, reached=0, replans=0, reentries=0, failed=0, times=[], stuck=0, fallbacks=0,
+                   reentries_layered=0)
         for c in range(args.cages):
             sc = generate_cage(np.random.default_rng(args.seed + c))
             r = fly(sc, use_layer, opts, args.step, args.stop, args.max_replans, sonar)
             agg["cages"] += 1
             agg["reached"] += r["reached"]
             agg["stuck"] += not r["reached"]
-            for k in ("replans", "reentries", "failed"):
+            for k in ("replans", "reentries", "failed", "fallbacks", "reentries_layered"):
                 agg[k] += r[k]
             agg["times"] += r["times"]
         t = np.asarray(agg.pop("times") or [0.0]) * 1e3
@@ -134,10 +139,13 @@ def main(argv=None) -> int:
     print(f"\nRoute follower without reactive layer, {args.cages} full cages, planner {args.planner}, "
           f"step {args.step} m per scan, stop at {args.stop} m")
     print(f"{'map':>15} | {'goal reached':>12} {'stuck':>6} | {'replans':>7} {'re-enter known return':>22} "
-          f"{'failed':>6} | {'replan p50':>10} {'p99':>8}")
+          f"{'failed':>6} {'fell back':>9} {'re-enter (layer plans)':>22} | {'replan p50':>10} {'p99':>8}")
     for name, a in rows.items():
         print(f"{name:>15} | {a['reached']:>12d} {a['stuck']:>6d} | {a['replans']:>7d} {a['reentries']:>22d} "
-              f"{a['failed']:>6d} | {a['replan_ms_p50']:>8.3f}ms {a['replan_ms_p99']:>6.3f}ms")
+              f"{a['failed']:>6d} {a['fallbacks']:>9d} {a['reentries_layered']:>22d} | "
+              f"{a['replan_ms_p50']:>8.3f}ms {a['replan_ms_p99']:>6.3f}ms")
+    print("  fell back: the learnt obstacles closed every way, so the replan was made on the known map only "
+          "(plan_with_layer); re-enter (layer plans): re-entries among the replans that used the layer")
     print(json.dumps(dict(rows=rows, cages=args.cages, seed=args.seed, planner=args.planner, step=args.step,
                           stop=args.stop), separators=(",", ":")))
     return 0
