@@ -16,6 +16,7 @@ evaluation seed, disjoint from every training episode. ``aggregate`` works on an
 """
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import sys
@@ -30,11 +31,7 @@ from .evaluate import wilson
 
 
 def ray_available() -> bool:
-    try:
-        import ray  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    return importlib.util.find_spec("ray") is not None
 
 
 def train_one(cfg_dict: dict, out: str, command: str, progress: bool = False) -> dict:

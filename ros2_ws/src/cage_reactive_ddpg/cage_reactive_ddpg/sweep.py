@@ -34,6 +34,7 @@ The sweep file (every key checked):
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import shutil
@@ -313,11 +314,8 @@ def main(argv: list[str] | None = None) -> int:
         spec = load_spec(a.config)
         if a.trials is not None:
             spec.trials = a.trials
-        try:
-            import optuna  # noqa: F401
-            import ray  # noqa: F401
-        except ImportError:
-            raise RuntimeError(INSTALL_HINT) from None
+        if any(importlib.util.find_spec(m) is None for m in ("ray", "optuna")):
+            raise RuntimeError(INSTALL_HINT)
         out = Path(a.out)
         grid = run_sweep(spec, out, a.address, progress=not a.quiet)
         best = write_results(spec, grid, out)
