@@ -168,3 +168,16 @@ def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_a
     if obs is None:
         pytest.skip("the shipped layout needs the observation builder")
     assert SafetyShield(pol, ArcController(pol.layout)).act(obs)[0] == 0.0
+
+
+def test_shipped_fls_policy_is_for_the_fls_profile_only():
+    from cage_reactive_ddpg.policy import env_config_for
+    path = shipped_path().with_name("policy_fls.safetensors")
+    pol = load_policy(path, profile="fls")
+    env = env_config_for(pol.metadata)
+    assert pol.profile == "fls" and env.sonar.profile == "fls" and env.layout.size == pol.layout.size
+    assert pol.act(np.zeros(pol.layout.size, np.float32)).shape == (1,)
+    with pytest.raises(PolicyLoadError, match="trained for sensor profile 'fls', this sonar is profile 'study'"):
+        load_policy(path, profile="study")
+    with pytest.raises(PolicyLoadError, match="name: file has 'cage-obs-v2', this build uses 'cage-obs-v1'"):
+        load_policy(path, layout=EnvConfig().layout)          # a node building the study's observation
