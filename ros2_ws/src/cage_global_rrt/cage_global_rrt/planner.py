@@ -98,6 +98,7 @@ class GlobalPlanner:
         point_valid(0.0, 0.0, k.net_radius, margin, k.squares, k.circles)
         segment_valid(0.0, 0.0, 1.0, 0.0, k.net_radius, margin, k.squares, k.circles)
         shortcut(np.zeros((3, 2)), k, margin)
+        path_length(headings(resample(np.zeros((2, 2)), 1.0))[:, None].repeat(2, axis=1))
 
     @property
     def env(self) -> CageEnvironment:
