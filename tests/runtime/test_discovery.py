@@ -83,7 +83,7 @@ def test_best_available_subscription_gets_latched_data(spawn: Callable[..., Any]
     """BEST_AVAILABLE resolves to what the publisher offers (reliable + transient local here)."""
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
-    from rclpy.qos import DurabilityPolicy, ReliabilityPolicy, qos_profile_best_available
+    from rclpy.qos import ReliabilityPolicy, qos_profile_best_available
     from std_msgs.msg import String
 
     from runtime_testlib import spin_until

@@ -27,7 +27,7 @@ import os
 import sys
 from pathlib import Path
 
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
 #: Repository root when running from the source tree (runtime/src/cage_ros_runtime/typestore.py).

@@ -20,7 +20,6 @@ from action_msgs.srv import CancelGoal
 from rclpy.action.common import (FEEDBACK_QOS, SERVICE_QOS, STATUS_QOS, encode_status_array,
                                  entity_names, goal_key, zero_time)
 from rclpy.service import Service
-from rclpy.task import Future
 
 
 class GoalResponse(Enum):
