@@ -95,3 +95,25 @@ def test_msg_path_env_adds_packages(tmp_path) -> None:
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, CAGE_MSG_PATH=str(tmp_path)))
     assert out.stdout.split() == ['3', '00010000020000006100']
+
+
+def test_callback_groups_and_guard_conditions(context) -> None:
+    """rclpy code that passes callback groups and triggers guard conditions runs unchanged."""
+    import threading
+
+    from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.node import Node
+
+    from runtime_testlib import spin_until
+    node = Node('grouped', context=context)
+    fired: list = []
+    node.create_timer(0.01, lambda: fired.append('timer'), callback_group=ReentrantCallbackGroup())
+    guard = node.create_guard_condition(lambda: fired.append('guard'),
+                                        callback_group=MutuallyExclusiveCallbackGroup())
+    executor = MultiThreadedExecutor(context=context)
+    executor.add_node(node)
+    threading.Thread(target=guard.trigger).start()
+    assert spin_until(executor, lambda: 'guard' in fired and 'timer' in fired, 10)
+    assert node.destroy_guard_condition(guard)
+    node.destroy_node()

@@ -73,6 +73,7 @@ class Node:
         self._services: List[Any] = []
         self._clients: List[Any] = []
         self._waitables: List[Any] = []
+        self._guards: List[Any] = []
         self._generation = 0  # bumped when the set of waitable entities changes
         self._destroyed = False
         self.__executor_weakref: Any = None
@@ -236,11 +237,25 @@ class Node:
 
     @property
     def guards(self) -> Iterator[Any]:
-        yield from ()
+        yield from self._guards
 
     @property
     def waitables(self) -> Iterator[Any]:
         yield from self._waitables
+
+    def create_guard_condition(self, callback: Callable[[], Any], callback_group: Any = None) -> Any:
+        """A guard condition whose `trigger()` runs `callback` in the executor spinning this node."""
+        from rclpy.guard_condition import GuardCondition
+        guard = GuardCondition(callback, self)
+        self._guards.append(guard)
+        return guard
+
+    def destroy_guard_condition(self, guard: Any) -> bool:
+        if guard in self._guards:
+            self._guards.remove(guard)
+            guard.destroy()
+            return True
+        return False
 
     def add_waitable(self, waitable: Any) -> None:
         self._waitables.append(waitable)
