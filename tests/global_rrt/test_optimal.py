@@ -175,3 +175,16 @@ def test_flyable_corner_near_an_obstacle_gets_more_room():
     r = plan(world, (-4.0, -3.0), (3.0, 4.0), FLY)
     assert r.ok and r.flyable and r.arcs, r.message
     assert min((world.clearance(x, y) for x, y in arc_points(r)), default=math.inf) >= 1.0 - 1e-6
+
+
+def test_flyable_keeps_a_corner_sharp_only_where_no_arc_fits():
+    """A query from the benchmark set where some corners cannot be rounded even on wider graphs
+    within 1.25x the length: the others are rounded, the result says how many stayed sharp."""
+    sc = generate_cage(np.random.default_rng(100_080))
+    start, goal = (-26.743692307673687, 7.488526995182139), (-21.217633955469477, -17.2632557652271)
+    r = plan(sc.world, start, goal, FLY)
+    assert r.ok and not r.flyable and r.arcs and "kept sharp" in r.message, r.message
+    known = sc.world.known_map()
+    assert all(rad >= FLY.turning_radius for _, _, rad in r.arcs)
+    assert segment_clearance(known, r.waypoints, resolution=0.02) >= FLY.clearance - 1e-6
+    assert min(known.clearance(x, y) for x, y in arc_points(r)) >= FLY.clearance - 1e-6

@@ -87,46 +87,70 @@ def _dedup(points, tol: float = 1e-9) -> np.ndarray:
     return np.asarray(out)
 
 
-def fillet(points: np.ndarray, kmap: KnownMap, clearance: float, radius: float,
-           spacing: float = 0.5) -> tuple[np.ndarray, list[tuple[float, float, float]]] | None:
-    """(waypoints, arcs): the polyline with every corner rounded, arcs as chords ``spacing``
-    apart, and each arc as (centre x, centre y, radius); None when a fillet does not fit or breaks
-    the clearance. Straight legs are returned as their two ends (the caller resamples them)."""
-    corners = merge_corners(points, radius)
+Arc = tuple[float, float, float]   # centre x, centre y, radius
+
+
+def fillet(points: np.ndarray, kmap: KnownMap, clearance: float, radius: float, spacing: float = 0.5,
+           keep_sharp: bool = False, merge: bool = True) -> tuple[np.ndarray, list[Arc], int] | None:
+    """(waypoints, arcs, sharp): the polyline with its corners rounded, arcs as chords ``spacing``
+    apart, each arc as (centre x, centre y, radius), and how many corners stayed sharp. Without
+    ``keep_sharp`` a corner whose arc does not fit or breaks the clearance makes the whole result
+    None; with it, that corner stays a corner (when its straight legs keep the clearance) and the
+    others are rounded. ``merge`` False rounds the corners as they are (no merged corner points,
+    whose extended legs may cross an obstacle): neighbours whose arcs would overlap stay sharp.
+    Straight legs are returned as their two ends (the caller resamples them)."""
+    corners = merge_corners(points, radius) if merge else _dedup(points)
     if corners is None:
         return None
     R, sq, ci = kmap.net_radius, kmap.squares, kmap.circles
     c = corners.tolist()
     out: list[list[float]] = [c[0]]
     arcs: list[tuple[float, float, float]] = []
+    sharp = 0
     for i in range(1, len(c) - 1):
         a, b, d = c[i - 1], c[i], c[i + 1]
-        theta, cross = _turn(a, b, d)
-        lu, lw = math.dist(a, b), math.dist(b, d)
-        ux, uy = (b[0] - a[0]) / lu, (b[1] - a[1]) / lu
-        wx, wy = (d[0] - b[0]) / lw, (d[1] - b[1]) / lw
-        t = radius * math.tan(0.5 * theta)
-        p = [b[0] - t * ux, b[1] - t * uy]
-        q = [b[0] + t * wx, b[1] + t * wy]
-        side = 1.0 if cross > 0 else -1.0          # left turn: centre on the left
-        cx, cy = p[0] - side * radius * uy, p[1] + side * radius * ux
-        a0 = math.atan2(p[1] - cy, p[0] - cx)
-        n = max(1, int(math.ceil(radius * theta / spacing)))
-        sag = (radius * theta / n) ** 2 / (8.0 * radius)
-        chord = [p] + [[cx + radius * math.cos(a0 + side * theta * k / n), cy + radius * math.sin(a0 + side * theta * k / n)]
-                       for k in range(1, n)] + [q]
-        if not segment_valid(out[-1][0], out[-1][1], p[0], p[1], R, clearance, sq, ci):
-            return None
-        for s0, s1 in zip(chord[:-1], chord[1:]):
-            if not segment_valid(s0[0], s0[1], s1[0], s1[1], R, clearance + sag, sq, ci):
+        arc = _arc(out[-1], a, b, d, radius, spacing, clearance, R, sq, ci)
+        if arc is None:
+            if not keep_sharp or not segment_valid(out[-1][0], out[-1][1], b[0], b[1], R, clearance, sq, ci):
                 return None
+            out.append(b)
+            sharp += 1
+            continue
+        chord, centre = arc
         out.extend(chord)
-        arcs.append((cx, cy, radius))
+        arcs.append(centre)
     end = c[-1]
     if not segment_valid(out[-1][0], out[-1][1], end[0], end[1], R, clearance, sq, ci):
         return None
     out.append(end)
-    return _dedup_keep(np.asarray(out)), arcs
+    return _dedup_keep(np.asarray(out)), arcs, sharp
+
+
+def _arc(prev, a, b, d, radius, spacing, clearance, R, sq, ci):
+    """(chord points, (cx, cy, radius)) of the fillet at corner b coming from ``prev``, or None
+    when the straight run to it or the arc breaks the clearance."""
+    theta, cross = _turn(a, b, d)
+    lu, lw = math.dist(a, b), math.dist(b, d)
+    ux, uy = (b[0] - a[0]) / lu, (b[1] - a[1]) / lu
+    wx, wy = (d[0] - b[0]) / lw, (d[1] - b[1]) / lw
+    t = radius * math.tan(0.5 * theta)
+    if t > math.dist(prev, b) + 1e-12 or t > lw + 1e-12:
+        return None   # the arc needs more of a leg than is left
+    p = [b[0] - t * ux, b[1] - t * uy]
+    q = [b[0] + t * wx, b[1] + t * wy]
+    side = 1.0 if cross > 0 else -1.0          # left turn: centre on the left
+    cx, cy = p[0] - side * radius * uy, p[1] + side * radius * ux
+    a0 = math.atan2(p[1] - cy, p[0] - cx)
+    n = max(1, int(math.ceil(radius * theta / spacing)))
+    sag = (radius * theta / n) ** 2 / (8.0 * radius)
+    chord = [p] + [[cx + radius * math.cos(a0 + side * theta * k / n),
+                    cy + radius * math.sin(a0 + side * theta * k / n)] for k in range(1, n)] + [q]
+    if not segment_valid(prev[0], prev[1], p[0], p[1], R, clearance, sq, ci):
+        return None
+    for s0, s1 in zip(chord[:-1], chord[1:]):
+        if not segment_valid(s0[0], s0[1], s1[0], s1[1], R, clearance + sag, sq, ci):
+            return None
+    return chord, (cx, cy, radius)
 
 
 def _dedup_keep(points: np.ndarray, tol: float = 1e-9) -> np.ndarray:

@@ -175,8 +175,8 @@ class GlobalPlanner:
         o, k = self.options, self.kmap
         extra = {}
         if o.flyable:
-            pts, arcs, note = self._flyable(pts, s, g)
-            extra = dict(flyable=arcs is not None, arcs=arcs or [])
+            pts, arcs, complete, note = self._flyable(pts, s, g)
+            extra = dict(flyable=complete, arcs=arcs)
         if yaw is None:
             pts = resample(pts, o.waypoint_spacing)
             yaw = headings(pts)
@@ -188,8 +188,10 @@ class GlobalPlanner:
         return PlanResult(PlanStatus.SUCCESS, msg, pts, yaw, length=length, **base, **extra)
 
     def _flyable(self, pts: np.ndarray, s, g):
-        """(points, arcs or None, message suffix): the path's corners rounded, or a path replanned with
-        more clearance whose corners can be rounded, or the corner path when neither works."""
+        """(points, arcs, every corner rounded?, message suffix): the path's corners rounded; else a
+        path replanned with more clearance (at most FLYABLE_MAX_DETOUR longer) whose corners can all
+        be rounded; else the path with every corner that fits rounded and the others kept sharp;
+        else the corner path."""
         o, k = self.options, self.kmap
         done = fillet(pts, k, o.clearance, o.turning_radius, o.arc_spacing)
         if done is None:
@@ -201,10 +203,15 @@ class GlobalPlanner:
                 done = fillet(alt, k, o.clearance, o.turning_radius, o.arc_spacing)
                 if done is not None:
                     break
-        if done is None:
-            return pts, None, (f"; corners kept: no arcs of radius {o.turning_radius:g} m fit with the clearance "
-                               f"within {FLYABLE_MAX_DETOUR:g}x the length")
-        return done[0], done[1], f", {len(done[1])} arcs of radius {o.turning_radius:g} m"
+        if done is not None:
+            return done[0], done[1], True, f", {len(done[1])} arcs of radius {o.turning_radius:g} m"
+        part = fillet(pts, k, o.clearance, o.turning_radius, o.arc_spacing, keep_sharp=True) or \
+            fillet(pts, k, o.clearance, o.turning_radius, o.arc_spacing, keep_sharp=True, merge=False)
+        if part is not None:
+            return part[0], part[1], False, (f", {len(part[1])} arcs of radius {o.turning_radius:g} m; "
+                                             f"{part[2]} corner(s) kept sharp: no arc fits there with the clearance")
+        return pts, [], False, (f"; corners kept: no arcs of radius {o.turning_radius:g} m fit with the "
+                                f"clearance within {FLYABLE_MAX_DETOUR:g}x the length")
 
     def _endpoint_failure(self, s, g) -> PlanResult | None:
         """Nav2-style start/goal codes: outside the net, or inside an inflated obstacle/net margin."""
