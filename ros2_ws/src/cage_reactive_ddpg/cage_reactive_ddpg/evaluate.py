@@ -298,7 +298,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     if a.reuse:
         policy += f" (rows of {sorted({r['driver'] for r in _reused(a, name, motion, env.sonar.profile)})} from {a.reuse})"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {a.episodes} missions per cell, seed {a.seed}, "
-             f"planner {a.planner}, policy {Path(policy).name}")
+             f"planner {a.planner}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}")
     md = mx.markdown(rows, title)
     print(md)
     prefix.with_suffix(".md").write_text(md)
