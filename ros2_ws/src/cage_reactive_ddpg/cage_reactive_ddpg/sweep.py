@@ -212,6 +212,14 @@ def run_sweep(spec: SweepSpec, out: Path, address: str | None = None, progress: 
     return tuner.fit()
 
 
+def _trial_number(result, default: int) -> int:
+    """Tune names trial folders ``run_trial_<id>_<n>_<params>``: n (1-based) is the proposal order."""
+    try:
+        return int(Path(result.path).name.split("_")[3]) - 1
+    except (AttributeError, IndexError, TypeError, ValueError):
+        return default
+
+
 def write_results(spec: SweepSpec, grid, out: Path) -> dict:
     """Trials CSV, best trainer YAML and PNG; returns the best trial's row."""
     import csv
@@ -220,7 +228,7 @@ def write_results(spec: SweepSpec, grid, out: Path) -> dict:
         if r.metrics is None or "goal" not in (r.metrics or {}):
             continue
         cfg = r.config or {}
-        rows.append({"trial": i, "trial_id": r.metrics.get("trial_id", ""),
+        rows.append({"trial": _trial_number(r, i), "trial_id": r.metrics.get("trial_id", ""),
                      **{k: _decode(cfg.get(k)) for k in spec.space},
                      "goal": r.metrics["goal"], "collision": r.metrics["collision"],
                      "evaluations": r.metrics.get("training_iteration", 0),
@@ -228,9 +236,7 @@ def write_results(spec: SweepSpec, grid, out: Path) -> dict:
                      "env_steps": r.metrics.get("env_steps", 0), "error": bool(r.error)})
     if not rows:
         raise RuntimeError("sweep: no trial reported a result (see the Ray logs under the experiment folder)")
-    rows.sort(key=lambda row: row["trial_id"])
-    for i, row in enumerate(rows):
-        row["trial"] = i
+    rows.sort(key=lambda row: row["trial"])      # the order Optuna proposed them in
     fields = list(rows[0])
     with (out / f"{spec.name}_trials.csv").open("w", newline="") as f:
         w = csv.DictWriter(f, fields)
