@@ -40,7 +40,8 @@ def _alive(pid: int) -> bool:
 
 
 def test_timeout_k_leaves_no_node_behind(tmp_path):
-    argv = ["timeout", "-k", "1", "15", "bash", str(SCRIPT), "--out", str(tmp_path), "--timeout", "120"]
+    argv = ["timeout", "-k", "1", "15", "bash", str(SCRIPT), "--out", str(tmp_path), "--timeout", "120",
+            "--time-scale", "1.0"]   # a mission of ~50 s wall: the timeout always comes first
     proc = subprocess.Popen(argv, env=_env((os.getpid() * 13) % 90 + 10), stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     seen: set[int] = set()
