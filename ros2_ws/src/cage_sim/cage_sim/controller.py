@@ -113,8 +113,7 @@ class ArcController:
             if len(p.returns) else np.zeros(0, dtype=bool)
         if near.any():   # each return as seen from the vehicle drifting past it: q - (drift - u) t
             pts, rel = p.returns[near], p.relative()[near]
-            moved = traj[:, :, None, :] + self._times[None, :, None, None] * rel[None, None]
-            clear_along = np.linalg.norm(moved - pts[None, None], axis=-1).min(axis=2)   # [cand, point]
+            clear_along = self._clearance_along(traj, pts, rel)                           # [cand, point]
         else:
             clear_along = np.full(traj.shape[:2], np.inf)
         if p.final:   # the mission ends on passing through the goal: what comes after is never flown
@@ -137,6 +136,15 @@ class ArcController:
         if ok[-1] and score[-1] <= score[best] + 0.05:
             return a_aim          # flying at the waypoint is as good: do exactly that (no dithering)
         return float(firsts[best])
+
+    def _clearance_along(self, traj: np.ndarray, pts: np.ndarray, rel: np.ndarray) -> np.ndarray:
+        """min over returns of |traj + t rel - q| per candidate point. Per coordinate and the square
+        root after the minimum: the same floats as the norm of the (cand, point, return, 2) array,
+        about three times faster (this is most of a decision's time with a memory's 100+ returns)."""
+        t = self._times[None, :, None]
+        dx = traj[:, :, None, 0] + t * rel[None, None, :, 0] - pts[None, None, :, 0]
+        dy = traj[:, :, None, 1] + t * rel[None, None, :, 1] - pts[None, None, :, 1]
+        return np.sqrt((dx * dx + dy * dy).min(axis=2))
 
     def _final_cost(self, to_goal: np.ndarray, flown: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Metres to the goal for each candidate: where it passes through the goal, the path flown so
