@@ -50,7 +50,7 @@ print({'peak_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 'rs
 ROWS = {
     "policy (numpy + safetensors)": "SHIELD = False\n" + ACT,
     "policy + shield": "SHIELD = True\n" + ACT,
-    "policy_node's imports + policy + shield": "import cage_reactive_ddpg.policy_node\nSHIELD = True\n" + ACT,
+    "policy_node's imports + policy + shield": "import cage_reactive_ddpg.nodes.policy_node\nSHIELD = True\n" + ACT,
     "torch actor (before)": TORCH,
 }
 

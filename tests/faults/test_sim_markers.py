@@ -22,7 +22,7 @@ def test_markers_go_out_once_in_full_then_only_the_moving_ones_at_a_bounded_rate
                                  "unknown_obstacles": obs}))
     rclpy.init(args=["--ros-args", "-p", f"scenario:={f}", "-p", "marker_rate:=2.0"])
     try:
-        from cage_sim.sim_node import SimNode
+        from cage_sim.nodes.sim_node import SimNode
         node = SimNode()
         sent = []
         publish = node.marker_pub.publish

@@ -138,7 +138,7 @@ def test_loading_and_acting_does_not_import_torch_nor_numba():
     import subprocess
     import sys
     code = ("import sys, numpy as np\n"
-            "import cage_reactive_ddpg.policy_node\n"
+            "import cage_reactive_ddpg.nodes.policy_node\n"
             "from cage_reactive_ddpg.policy import load_policy\n"
             "p = load_policy()\n"
             "a = p.act(np.ones(p.layout.size, np.float32))\n"

@@ -22,7 +22,7 @@ setup(
     extras_require={'test': ['pytest'], 'fast': ['numba']},
     entry_points={
         'console_scripts': [
-            'rrt_node = cage_global_rrt.rrt_node:main',
+            'rrt_node = cage_global_rrt.nodes.rrt_node:main',
         ],
     },
 )

@@ -24,7 +24,7 @@ setup(
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
-            'policy_node = cage_reactive_ddpg.policy_node:main',
+            'policy_node = cage_reactive_ddpg.nodes.policy_node:main',
             'train = cage_reactive_ddpg.train:main',
             'evaluate = cage_reactive_ddpg.evaluate:main',
             'sweep = cage_reactive_ddpg.sweep:main',

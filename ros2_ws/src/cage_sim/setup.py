@@ -25,11 +25,11 @@ setup(
     extras_require={'test': ['pytest']},
     entry_points={
         'console_scripts': [
-            'sim_node = cage_sim.sim_node:main',
-            'vehicle_node = cage_sim.vehicle_node:main',
-            'mission_client = cage_sim.mission_client_node:main',
-            'navigator_node = cage_sim.navigator_node:main',
-            'recorder_node = cage_sim.recorder_node:main',
+            'sim_node = cage_sim.nodes.sim_node:main',
+            'vehicle_node = cage_sim.nodes.vehicle_node:main',
+            'mission_client = cage_sim.nodes.mission_client_node:main',
+            'navigator_node = cage_sim.nodes.navigator_node:main',
+            'recorder_node = cage_sim.nodes.recorder_node:main',
             'cage_demo = cage_sim.demo:main',
         ],
     },

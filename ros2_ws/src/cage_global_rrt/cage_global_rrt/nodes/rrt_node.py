@@ -25,14 +25,14 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from cage_sim.node_runner import run_node
+from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw, stamp_ns
 
-from .known_map import KnownMap
-from .obstacle_layer import LayerParams, ObstacleLayer, plan_with_layer
-from .options import NODE_PARAMETERS, InvalidParameters, options_from_parameters
-from .planner import GlobalPlanner, PlanResult
-from .status import PlanStatus
+from ..known_map import KnownMap
+from ..obstacle_layer import LayerParams, ObstacleLayer, plan_with_layer
+from ..options import NODE_PARAMETERS, InvalidParameters, options_from_parameters
+from ..planner import GlobalPlanner, PlanResult
+from ..status import PlanStatus
 
 LATCHED = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)

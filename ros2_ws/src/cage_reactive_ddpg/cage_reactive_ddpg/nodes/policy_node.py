@@ -27,8 +27,8 @@ import numpy as np
 from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
 from cage_sim.mission import EnvConfig
-from cage_sim.node_common import VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle
-from cage_sim.node_runner import run_node
+from cage_sim.nodes.node_common import VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle
+from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
 from cage_sim.recovery import joining_under_way, remaining_route
 from cage_sim.route import RouteTracker
@@ -40,7 +40,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
-from .policy import PolicyLoadError, load_policy
+from ..policy import PolicyLoadError, load_policy
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 

@@ -24,11 +24,11 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from .navigation import CODE_NAMES
+from ..navigation import CODE_NAMES
 from .node_common import declare
-from .plotting import plot_episode
-from .ros_convert import EVENT_OUTCOMES, path_points, stamp_ns, yaw_to_quaternion
-from .scenarios import draw_scenario
+from ..plotting import plot_episode
+from ..ros_convert import EVENT_OUTCOMES, path_points, stamp_ns, yaw_to_quaternion
+from ..scenarios import draw_scenario
 
 try:
     from rclpy.action import ActionClient

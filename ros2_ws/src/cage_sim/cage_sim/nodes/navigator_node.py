@@ -33,11 +33,11 @@ from nav_msgs.msg import Odometry, Path
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from .navigation import (CANCELED, CODE_NAMES, GOAL_REACHED, NAVIGATOR_STOPPED, OUTCOME_CODES, PLANNER_FAILED,
+from ..navigation import (CANCELED, CODE_NAMES, GOAL_REACHED, NAVIGATOR_STOPPED, OUTCOME_CODES, PLANNER_FAILED,
                          PREEMPTED, MissionProgress, goal_problem)
 from .node_common import declare
 from .node_runner import run_node
-from .ros_convert import (EVENT_OUTCOMES, map_to_world, mission_msg, odom_pose, path_points, stamp_ns, time_msg,
+from ..ros_convert import (EVENT_OUTCOMES, map_to_world, mission_msg, odom_pose, path_points, stamp_ns, time_msg,
                           yaw_to_quaternion)
 
 try:  # rclpy's action layer (the project's runtime grows it; real rclpy has it)

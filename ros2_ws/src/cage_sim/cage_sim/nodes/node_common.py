@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from .vehicle import VehicleParams
+from ..vehicle import VehicleParams
 
 _DEFAULTS = VehicleParams()
 VEHICLE_PARAMETERS = {

@@ -18,7 +18,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 
 from .node_common import declare
 from .node_runner import run_node
-from .recording import GRAPH_TOPICS, McapRecorder
+from ..recording import GRAPH_TOPICS, McapRecorder
 
 QOS = {
     "latched": QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL),

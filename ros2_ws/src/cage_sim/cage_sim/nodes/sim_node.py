@@ -33,17 +33,17 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from .mission import EnvConfig, Mission
+from ..mission import EnvConfig, Mission
 from .node_common import check, decision_period_ns, declare, declare_vehicle
 from .node_runner import run_node
-from .recovery import joining_under_way, remaining_route
-from .route import RouteTracker
-from .ros_convert import (OUTCOME_EVENTS, mission_points, odom_pose, path_msg, scan_msg, stamp_ns, time_msg,
+from ..recovery import joining_under_way, remaining_route
+from ..route import RouteTracker
+from ..ros_convert import (OUTCOME_EVENTS, mission_points, odom_pose, path_msg, scan_msg, stamp_ns, time_msg,
                           world_to_map)
-from .scenarios import draw_scenario
-from .sonar import SonarModel
-from .watchdog import Silence
-from .world import World
+from ..scenarios import draw_scenario
+from ..sonar import SonarModel
+from ..watchdog import Silence
+from ..world import World
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 

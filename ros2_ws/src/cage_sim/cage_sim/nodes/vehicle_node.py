@@ -36,10 +36,10 @@ from tf2_msgs.msg import TFMessage
 
 from .node_common import check, decision_period_ns, declare, declare_vehicle
 from .node_runner import run_node
-from .ros_convert import EVENT_OUTCOMES, quaternion_to_yaw, stamp_ns, time_msg, yaw_to_quaternion
-from .scenarios import draw_scenario
-from .vehicle import advance, velocity_over_ground
-from .watchdog import Silence
+from ..ros_convert import EVENT_OUTCOMES, quaternion_to_yaw, stamp_ns, time_msg, yaw_to_quaternion
+from ..scenarios import draw_scenario
+from ..vehicle import advance, velocity_over_ground
+from ..watchdog import Silence
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
