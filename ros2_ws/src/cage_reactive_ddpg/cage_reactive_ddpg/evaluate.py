@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
-from cage_sim.perception import ReturnMotion, perceive, to_body
+from cage_sim.driver import Driver, Moment, decide_batch
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
 from tqdm import tqdm
@@ -52,31 +52,10 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def mission_drift(m: Mission) -> np.ndarray:
-    """What the DVL gives the reactive layer: velocity over ground minus the commanded velocity
-    through the water, in the body frame, i.e. the water's velocity at the vehicle."""
-    w = m.world
-    field = getattr(w, "current_field", None)      # a slowly varying field where the world has one
-    cur = field.velocity(m.x, m.y, m.t) if field is not None else w.current
-    return to_body(np.asarray(cur, dtype=np.float64).reshape(2), m.yaw)
-
-
-def _drive(driver: Policy, obs: np.ndarray, ms: list[Mission], motions: list[ReturnMotion] | None) -> np.ndarray:
-    """Actions for a batch of live missions. The baseline and the shield get each mission's
-    ``Perception`` (drift from the DVL, returns moving as estimated across consecutive scans) when
-    ``motions`` is given; a policy alone reads only its observation."""
-    if motions is None or not isinstance(driver, (ArcController, SafetyShield)):
-        return np.asarray(driver.act(obs), dtype=np.float64).reshape(len(ms), -1)[:, 0]
-    ctrl = driver.fallback if isinstance(driver, SafetyShield) else driver
-    raw = np.asarray(driver.policy.act(obs), dtype=np.float64).reshape(len(ms), -1)[:, 0] \
-        if isinstance(driver, SafetyShield) else None
-    out = np.empty(len(ms))
-    for j, (m, o, mo) in enumerate(zip(ms, obs, motions)):
-        dist, err = ctrl.layout.waypoint_from(o)
-        p = perceive(ctrl.returns(o), m.pose, m.t, mission_drift(m), m.tracker.at_last, mo)
-        out[j] = driver.check(raw[j], float(dist), float(err), p) if raw is not None else \
-            ctrl.decide(float(dist), float(err), p)
-    return out
+def mission_moment(m: Mission) -> Moment:
+    """What the vehicle knows at this decision besides its observation: pose, time, the DVL's
+    body-frame velocity over ground (as vehicle_node publishes it), whether the waypoint is the goal."""
+    return Moment(m.pose, m.t, m.velocity_over_ground(), m.tracker.at_last)
 
 
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
@@ -90,11 +69,11 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     rng = np.random.default_rng(0)   # sonar noise only (off by default)
     for lo in range(0, len(scenarios), batch):
         ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
-        motions = [ReturnMotion() for _ in ms] if perception else None
+        drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception) for m in ms]
         live = list(range(len(ms)))
         while live:
             obs = observe_batch(config, [ms[i] for i in live], rng)
-            acts = _drive(policy, obs, [ms[i] for i in live], [motions[i] for i in live] if motions else None)
+            acts, _ = decide_batch([drivers[i] for i in live], obs, [mission_moment(ms[i]) for i in live])
             still = []
             for i, a in zip(live, acts):
                 _, outcome = ms[i].step(float(np.clip(a, -1.0, 1.0)))

@@ -1,0 +1,109 @@
+"""From what a vehicle has at a decision to an action: the one code path of the evaluator and policy_node.
+
+Why one module: a policy must behave the same in the node graph as in offline evaluation. The
+observation (layout, memory across scans, velocity over ground), the perception the shield and the
+baseline get (drift from the DVL, the motion of returns across scans, "the waypoint is the goal")
+and the choice between the policy's action and the shield's are all made here, so the evaluator
+(batched over many missions) and the node (one vehicle) cannot drift apart. Pure: no ROS import.
+
+  driver = Driver(policy, layout, vehicle)            # one per vehicle; driver.reset() per mission
+  action, shielded = driver.decide(scan, pose, t, v_ground_body, tracker)
+  actions, shielded = decide_batch(drivers, obs, moments)   # the evaluator: one batched forward
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .controller import ArcController, Policy
+from .observation import ObservationBuilder
+from .perception import ReturnMotion, body_drift, perceive
+from .route import RouteTracker
+from .shield import SafetyShield
+from .sonar import Scan
+from .vehicle import VehicleParams
+
+
+@dataclass(frozen=True)
+class Moment:
+    """What a vehicle knows at a decision besides its observation."""
+
+    pose: tuple[float, float, float]   # x, y, yaw (map frame)
+    t: float                           # sim time, s
+    v_ground: tuple[float, float] | None   # DVL: body-frame velocity over ground (None: unknown -> no drift)
+    final: bool                        # the waypoint is the mission's goal
+
+
+class Driver:
+    """One vehicle's decision maker: the policy (raw, behind the shield, or the classical baseline),
+    an ``ObservationBuilder`` for the policy's layout and a ``ReturnMotion`` (state across scans).
+
+    ``perception=False``: the shield and the baseline read the observation alone (static returns,
+    drift only from a v2 velocity), the drift-free reference of the evaluator."""
+
+    def __init__(self, policy: Policy, layout, vehicle: VehicleParams | None = None,
+                 builder: ObservationBuilder | None = None, perception: bool = True):
+        self.policy = policy
+        self.layout = layout
+        self.vehicle = vehicle or VehicleParams()
+        self.builder = builder or ObservationBuilder(layout)
+        self.motion = ReturnMotion() if perception else None
+
+    def reset(self) -> None:
+        """A new mission: forget the memory and the previous scan's returns."""
+        self.builder.reset()
+        if self.motion is not None:
+            self.motion.reset()
+
+    def observe(self, scan: "Scan | np.ndarray", pose, t: float, v_ground, dist: float, err: float) -> np.ndarray:
+        """The policy's observation from a scan (a ``Scan`` with beam stamps, or plain ranges of now)."""
+        v = v_ground if getattr(self.layout, "velocity", False) else None
+        x, y, yaw = pose
+        if isinstance(scan, Scan):
+            return self.builder.build_scan(scan, x, y, yaw, t, dist, err, v)
+        return self.builder.build(scan, x, y, yaw, t, dist, err, v)
+
+    def decide(self, scan: "Scan | np.ndarray", pose, t: float, v_ground, tracker: RouteTracker) -> tuple[float, bool]:
+        """(action in [-1, 1], whether the shield replaced the policy's action) for one decision;
+        ``tracker`` already advanced to ``pose``."""
+        dist, err = tracker.waypoint(*pose)
+        obs = self.observe(scan, pose, t, v_ground, dist, err)
+        acts, shielded = decide_batch([self], obs[None], [Moment(tuple(pose), t, v_ground, tracker.at_last)])
+        return float(acts[0]), bool(shielded[0])
+
+
+def controller_of(policy: Policy) -> ArcController | None:
+    """The classical controller that perceives for ``policy`` (the shield's fallback, or the baseline)."""
+    if isinstance(policy, SafetyShield):
+        return policy.fallback
+    return policy if isinstance(policy, ArcController) else None
+
+
+def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[Moment]) -> tuple[np.ndarray, np.ndarray]:
+    """Actions (B,) clipped to [-1, 1] and shielded flags (B,) for drivers sharing one policy: one
+    batched forward of the learned policy, then each vehicle's shield or baseline with its own
+    ``Perception``. A raw policy (or perception off) reads only its observation."""
+    policy = drivers[0].policy
+    ctrl = controller_of(policy)
+    n = len(drivers)
+    if ctrl is None or drivers[0].motion is None:
+        before = getattr(policy, "interventions", 0)
+        acts = np.asarray(policy.act(obs), dtype=np.float64).reshape(n, -1)[:, 0]
+        flags = np.full(n, getattr(policy, "interventions", 0) != before and n == 1)
+        return np.clip(acts, -1.0, 1.0), flags
+    shield = policy if isinstance(policy, SafetyShield) else None
+    raw = np.asarray(shield.policy.act(obs), dtype=np.float64).reshape(n, -1)[:, 0] if shield else None
+    out, flags = np.empty(n), np.zeros(n, dtype=bool)
+    for j, (d, o, mo) in enumerate(zip(drivers, obs, moments)):
+        dist, err = ctrl.layout.waypoint_from(o)
+        drift = body_drift(mo.v_ground, d.vehicle.speed) if mo.v_ground is not None else None
+        p = perceive(ctrl.returns(o), mo.pose, mo.t, drift, mo.final, d.motion)
+        if shield is None:
+            out[j] = ctrl.decide(float(dist), float(err), p)
+            continue
+        before = shield.interventions
+        out[j] = shield.check(raw[j], float(dist), float(err), p)
+        flags[j] = shield.interventions != before
+    return np.clip(out, -1.0, 1.0), flags
