@@ -4,6 +4,14 @@ With the study's config: one critic, actor updated every step, no target smoothi
 soft target updates with tau. ``twin_critic`` / ``policy_delay`` / ``target_noise`` turn on clipped
 double Q, delayed actor updates and target policy smoothing (Fujimoto et al.), which make DDPG's
 over-estimation ("DDPG does not learn") much rarer.
+
+Expert guidance (``bc_weight`` > 0, off by default): the actor's loss gains a behaviour-cloning
+term towards the expert's actions stored with the transitions, as in TD3+BC (Fujimoto & Gu 2021:
+the Q term normalised by its mean magnitude, so the weight means the same at any reward scale) with
+the Q-filter of Nair et al. (2018): an expert action is imitated only where the critic rates it at
+least as high as the actor's own. Why: the classical baseline already solves most sea missions, and
+pure exploration spends hundreds of thousands of steps rediscovering it; decaying the weight lets
+the critic take over where it knows better.
 """
 from __future__ import annotations
 
@@ -83,8 +91,9 @@ class DDPGAgent:
             net.norm.load_state_dict(state)
 
     # --- learning -------------------------------------------------------------------------
-    def update(self, b: Batch) -> dict[str, torch.Tensor]:
+    def update(self, b: Batch, bc_weight: float = 0.0) -> dict[str, torch.Tensor]:
         """One critic step (and, every ``policy_delay``, an actor step and soft target updates).
+        ``bc_weight``: the behaviour-cloning term's weight this update (0 = plain DDPG/TD3).
         Returns detached loss tensors: ``float()`` them only when logging."""
         cfg = self.cfg
         obs, act = torch.from_numpy(b.obs), torch.from_numpy(b.act)
@@ -106,7 +115,12 @@ class DDPGAgent:
         self.n_updates += 1
         info = {"critic_loss": critic_loss.detach(), "q": q[0].detach().mean()}
         if self.n_updates % cfg.policy_delay == 0:
-            actor_loss = -self.critic(obs, self.actor(obs), members=1, frozen=True).mean()
+            pi = self.actor(obs)
+            q_pi = self.critic(obs, pi, members=1, frozen=True)
+            if bc_weight > 0 and b.expert is not None:
+                actor_loss = self._guided_loss(obs, pi, q_pi, torch.from_numpy(b.expert), bc_weight, info)
+            else:
+                actor_loss = -q_pi.mean()
             self.actor_opt.zero_grad(set_to_none=True)
             actor_loss.backward()
             if cfg.grad_clip > 0:
@@ -115,6 +129,21 @@ class DDPGAgent:
             self.soft_update()
             info["actor_loss"] = actor_loss.detach()
         return info
+
+    def _guided_loss(self, obs: torch.Tensor, pi: torch.Tensor, q_pi: torch.Tensor, expert: torch.Tensor,
+                     weight: float, info: dict) -> torch.Tensor:
+        """-Q / mean|Q| + weight * mean over the batch of the (Q-filtered) squared distance to the
+        expert's action; rows without an expert label (NaN) get no cloning term."""
+        labelled = torch.isfinite(expert).all(1)
+        a_exp = torch.nan_to_num(expert)
+        keep = labelled
+        if self.cfg.q_filter:
+            with torch.no_grad():
+                q_exp = self.critic(obs, a_exp, members=1, frozen=True)[0]
+            keep = labelled & (q_exp >= q_pi[0].detach())
+        bc = ((pi - a_exp).pow(2).sum(1) * keep).mean()
+        info["bc_loss"], info["bc_kept"] = bc.detach(), keep.float().mean()
+        return -q_pi.mean() / q_pi.abs().mean().detach().clamp_min(1e-6) + weight * bc
 
     @torch.no_grad()
     def soft_update(self) -> None:

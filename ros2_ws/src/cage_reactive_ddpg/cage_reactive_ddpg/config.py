@@ -16,6 +16,9 @@ import yaml
 from cage_sim.mission import EnvConfig, RewardConfig
 
 
+EXPERTS = ("", "baseline")
+
+
 @dataclass
 class TrainConfig:
     # --- problem ------------------------------------------------------------------------
@@ -58,6 +61,13 @@ class TrainConfig:
     target_noise: float = 0.0            # TD3: target policy smoothing std (0 = off)
     target_noise_clip: float = 0.5
     grad_clip: float = 0.0               # max grad norm (0 = off)
+    # --- expert guidance (off = plain DDPG/TD3; agent.py, train.py) ----------------------
+    expert: str = ""                     # "baseline": the classical ArcController labels every observation
+    expert_fraction: float = 0.0         # share of episodes flown by the expert (+ noise): demonstrations
+    expert_fraction_final: float = -1.0  # < 0: constant; else linear decay to this share
+    bc_weight: float = 0.0               # behaviour-cloning weight in the actor loss (TD3+BC normalised)
+    bc_weight_final: float = -1.0        # < 0: constant; else linear decay to this weight
+    q_filter: bool = True                # clone only where Q(s, expert) >= Q(s, actor) (Nair et al. 2018)
     # --- logging ------------------------------------------------------------------------
     eval_every: int = 0                  # env steps between evaluations (0 = only at the end)
     eval_episodes: int = 100
@@ -82,6 +92,14 @@ class TrainConfig:
         for name in ("n_envs", "batch_size", "buffer_size", "n_step", "policy_delay"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name}: must be >= 1")
+        if self.expert not in EXPERTS:
+            raise ValueError(f"expert: must be one of {EXPERTS}, got {self.expert!r}")
+        if (self.expert_fraction > 0 or self.bc_weight > 0) and not self.expert:
+            raise ValueError("expert_fraction / bc_weight need an expert (expert: baseline)")
+        if not 0.0 <= self.expert_fraction <= 1.0 or self.expert_fraction_final > 1.0:
+            raise ValueError("expert_fraction: must be in [0, 1]")
+        if self.bc_weight < 0:
+            raise ValueError("bc_weight: must be >= 0")
         if self.total_steps <= 0 and self.episodes <= 0:
             raise ValueError("total_steps or episodes must be > 0")
         self.actor_hidden = tuple(int(h) for h in self.actor_hidden)

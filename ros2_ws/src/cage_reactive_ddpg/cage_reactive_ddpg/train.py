@@ -28,6 +28,7 @@ from typing import Any, Callable
 
 import numpy as np
 import torch
+from cage_sim.controller import ArcController
 from cage_sim.vec_env import CageNavVecEnv, finished
 from tqdm import tqdm
 
@@ -41,7 +42,7 @@ from .policy import save_policy
 from .study1d import STUDY1D, Study1DVecEnv, evaluate_1d
 
 EVAL_SEED = 987_654      # evaluation episodes during training (disjoint from the reported seeds)
-CSV_FIELDS = ["episode", "step", "reward", "length", "outcome", "success", "seconds"]
+CSV_FIELDS = ["episode", "step", "reward", "length", "outcome", "success", "seconds", "demo"]
 ARTIFACTS = ("policy.safetensors", "policy.json", "best.safetensors", "best.json", "episodes.csv",
              "learning_curve.png", "tb", "checkpoint.pt", "buffer.npz", "config.yaml")
 LOG_EVERY = 2000         # env steps between TensorBoard's rollout/time/train scalars
@@ -123,6 +124,10 @@ class Trainer:
             self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         self.agent = DDPGAgent(cfg, obs_dim)
+        # Expert guidance: the classical baseline reads the same observation (drift from its velocity
+        # part) and labels every transition; a share of the episodes is flown by it (demonstrations).
+        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle) if cfg.expert == "baseline" else None
+        self.demo = np.zeros(cfg.n_envs, dtype=bool)
         self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim)
         self.folder = NStepFolder(cfg.n_envs, cfg.n_step, cfg.gamma)
         self.noise = OUNoise(cfg.n_envs, 1, cfg.noise_theta, self.rng) if cfg.noise == "ou" \
@@ -147,11 +152,39 @@ class Trainer:
             return self.step < c.buffer_size
         return self.progress_fraction() < c.prefill_fraction
 
+    def schedule(self, start: float, final: float) -> float:
+        """Linear from ``start`` to ``final`` over the budget; ``final`` < 0 keeps ``start``."""
+        if final < 0:
+            return start
+        return start + (final - start) * min(1.0, self.progress_fraction())
+
     def noise_std(self) -> float:
+        return self.schedule(self.cfg.noise_std, self.cfg.noise_final_std)
+
+    def bc_weight(self) -> float:
+        return self.schedule(self.cfg.bc_weight, self.cfg.bc_weight_final) if self.expert is not None else 0.0
+
+    def draw_demo(self, i: int) -> None:
+        """Whether env ``i``'s next episode is flown by the expert (only with an expert: the RNG
+        stream of plain training is untouched)."""
+        if self.expert is not None:
+            c = self.cfg
+            self.demo[i] = self.rng.random() < self.schedule(c.expert_fraction, c.expert_fraction_final)
+
+    def behaviour(self, obs: np.ndarray, expert: np.ndarray | None) -> np.ndarray:
+        """This step's actions: random while prefilling, else the actor plus noise; episodes drawn
+        as demonstrations follow the expert plus the same noise."""
         c = self.cfg
-        if c.noise_final_std < 0:
-            return c.noise_std
-        return c.noise_std + (c.noise_final_std - c.noise_std) * min(1.0, self.progress_fraction())
+        if self.prefilling():
+            act = self.rng.uniform(-1.0, 1.0, (c.n_envs, 1))
+            std = c.noise_std
+        else:
+            std = self.noise_std()
+            act = self.agent.act(obs) + self.noise(std)
+        if expert is not None and self.demo.any():
+            noisy = expert + std * self.rng.standard_normal(expert.shape)
+            act = np.where(self.demo[:, None], noisy, act)
+        return np.clip(act, -1.0, 1.0)
 
     # --- the loop -------------------------------------------------------------------------
     def run(self) -> dict:
@@ -175,12 +208,12 @@ class Trainer:
         t0 = time.time() - self.train_seconds
         next_eval, next_ckpt, next_log = self._next(c.eval_every), self._next(c.checkpoint_every), self._next(LOG_EVERY)
         fps_mark = (self.step, time.time())
+        for i in range(c.n_envs):
+            self.draw_demo(i)
         while self.progress_fraction() < 1.0:
             self.agent.observe(obs)
-            if self.prefilling():
-                act = self.rng.uniform(-1.0, 1.0, (c.n_envs, 1))
-            else:
-                act = np.clip(self.agent.act(obs) + self.noise(self.noise_std()), -1.0, 1.0)
+            expert = self.expert.act(obs) if self.expert is not None else None
+            act = self.behaviour(obs, expert)
             nxt, rew, term, trunc, infos = self.envs.step(act)
             real_next = nxt.copy()
             for i, o in finished(infos):
@@ -189,13 +222,15 @@ class Trainer:
             ep_len += 1
             for i in range(c.n_envs):
                 done = bool(term[i] or trunc[i])
-                for tr in self.folder.push(i, obs[i], act[i], float(rew[i]), real_next[i], bool(term[i]), done):
+                for tr in self.folder.push(i, obs[i], act[i], float(rew[i]), real_next[i], bool(term[i]), done,
+                                           None if expert is None else expert[i]):
                     self.buffer.add(*tr)
                 if done:
                     self.episodes += 1
                     row = {"episode": self.episodes, "step": self.step + c.n_envs, "reward": round(float(ep_ret[i]), 3),
                            "length": int(ep_len[i]), "outcome": infos["outcome"][i],
-                           "success": int(_success(infos, i)), "seconds": round(time.time() - t0, 2)}
+                           "success": int(_success(infos, i)), "seconds": round(time.time() - t0, 2),
+                           "demo": int(self.demo[i])}
                     self.rows.append(row)
                     log.writerow(row)
                     recent.append(row)
@@ -205,6 +240,7 @@ class Trainer:
                         writer.add_scalar("episode/success", row["success"], row["step"])
                     ep_ret[i], ep_len[i] = 0.0, 0
                     self.noise.reset(i)
+                    self.draw_demo(i)
                     if c.total_steps <= 0:
                         bar.update(1)
             obs = nxt
@@ -214,7 +250,7 @@ class Trainer:
             if not self.prefilling() and self.buffer.size >= c.batch_size:
                 pending += c.updates_per_step * c.n_envs
                 while pending >= 1.0:
-                    info = self.agent.update(self.buffer.sample(self.rng, c.batch_size))
+                    info = self.agent.update(self.buffer.sample(self.rng, c.batch_size), self.bc_weight())
                     self.updates += 1
                     pending -= 1.0
             if self.step >= next_log:
@@ -264,6 +300,8 @@ class Trainer:
         writer.add_scalar("time/updates", self.updates, s)
         writer.add_scalar("train/noise_std", 0.0 if self.prefilling() else self.noise_std(), s)
         writer.add_scalar("train/buffer_size", self.buffer.size, s)
+        if self.expert is not None:
+            writer.add_scalar("train/bc_weight", self.bc_weight(), s)
         for k, v in info.items():
             writer.add_scalar(f"train/{k}", float(v), s)
         if recent:
@@ -400,7 +438,7 @@ def read_rows(path: Path, up_to: int) -> list[dict]:
                 rows.append({"episode": ep, "step": int(r["step"]), "reward": float(r["reward"]),
                              "length": int(r["length"]), "outcome": r["outcome"],
                              "success": int(r.get("success") or r["outcome"] == "goal"),
-                             "seconds": float(r["seconds"])})
+                             "seconds": float(r["seconds"]), "demo": int(r.get("demo") or 0)})
             except (KeyError, TypeError, ValueError) as err:
                 raise CheckpointError(f"{path}: unreadable episode row ({_one_line(err)})") from None
     return rows
