@@ -20,6 +20,7 @@ def test_defaults_are_the_library_defaults_but_seeded_with_corner_waypoints():
 def test_shipped_yaml_is_valid_and_complete():
     params = yaml.safe_load(CONFIG.read_text())["/**/rrt_node"]["ros__parameters"]
     assert set(params) == set(NODE_PARAMETERS)
+    assert params == NODE_PARAMETERS      # the node's declared defaults are the shipped file's values
     for name, value in params.items():
         assert type(value) is type(NODE_PARAMETERS[name]), name
     opts = options_from_parameters(params)
