@@ -31,6 +31,7 @@ BAD_PARAMETERS = [
     ("cage_reactive_ddpg", "policy_node", "waypoint_radius:=-1.0"),
     ("cage_reactive_ddpg", "policy_node", "replan_after:=0"),
     ("cage_sim", "mission_client_node", "progress_every:=0"),
+    ("cage_sim", "mission_client_node", "result_grace:=0.0"),
 ]
 
 

@@ -7,6 +7,11 @@ line, then exits: 0 for goal, 1 for any other outcome of a flown mission, 2 for 
 planner failure, 3 when ``timeout`` wall seconds pass first. Where the rclpy in use has no actions it
 publishes the goal on ``goal_pose`` instead (re-sent until the navigator answers with a mission) and
 reads the outcome from ``mission_event``.
+
+A navigator restarted mid-mission has forgotten the action goal, so its result never comes; the
+simulator still judges the mission and says the outcome on ``mission_event``. When that event has
+come and no action result follows within ``result_grace`` wall seconds, the client reports the
+judged outcome (saying why) instead of waiting for its timeout.
 """
 from __future__ import annotations
 
@@ -45,9 +50,13 @@ class MissionClient(Node):
     def __init__(self) -> None:
         super().__init__("mission_client")
         self.p = declare(self, scenario="full_cage", seed=0, timeout=120.0, png="out/mission_track.png",
-                         progress_every=10, resend_period=2.0, frame_id="map", use_action=True)
+                         progress_every=10, resend_period=2.0, frame_id="map", use_action=True, result_grace=3.0)
         if not (isinstance(self.p["progress_every"], int) and self.p["progress_every"] >= 1):
             raise ValueError(f"parameter progress_every:={self.p['progress_every']!r} is invalid: must be an integer >= 1")
+        grace = self.p["result_grace"]
+        if not (isinstance(grace, (int, float)) and math.isfinite(grace) and grace > 0):
+            raise ValueError(f"parameter result_grace:={grace!r} is invalid: must be > 0 wall seconds")
+        self.judged: tuple[float, MissionEvent] | None = None   # the simulator's outcome event, when it came
         self.scenario = draw_scenario(self.p["scenario"], self.p["seed"])
         self.started = time.monotonic()
         self.result: dict | None = None
@@ -137,14 +146,27 @@ class MissionClient(Node):
     def on_event(self, msg: MissionEvent) -> None:
         if self.mission_id is None or msg.mission_id != self.mission_id:
             return
-        if self.action is None and msg.event in EVENT_OUTCOMES:
-            self.finish(EVENT_OUTCOMES[msg.event], steps=int(msg.step), detail=msg.detail,
-                        final=(msg.position.x, msg.position.y), mission_id=int(msg.mission_id))
+        if msg.event in EVENT_OUTCOMES:
+            if self.action is None:
+                self.finish_judged(msg)
+            elif self.judged is None:
+                self.judged = (time.monotonic(), msg)    # the action's result normally follows at once
         elif msg.event in (MissionEvent.FAILSAFE, MissionEvent.REPLAN_REQUESTED):
             self.get_logger().warning(f"mission event {msg.event}: {msg.detail}")
 
+    def finish_judged(self, msg: MissionEvent, why: str = "") -> None:
+        self.finish(EVENT_OUTCOMES[msg.event], steps=int(msg.step), detail=why + msg.detail,
+                    final=(msg.position.x, msg.position.y), mission_id=int(msg.mission_id))
+
     def check_wall_timeout(self) -> None:
-        if self.result is None and time.monotonic() - self.started > self.p["timeout"]:
+        if self.result is not None:
+            return
+        now = time.monotonic()
+        if self.judged is not None and now - self.judged[0] > self.p["result_grace"]:
+            self.get_logger().warning(f"no action result {self.p['result_grace']:.1f} s after the simulator's "
+                                      f"outcome (navigator restarted?): reporting the judged outcome")
+            self.finish_judged(self.judged[1], "judged by the simulator (no action result): ")
+        elif now - self.started > self.p["timeout"]:
             self.finish("wall_timeout", detail=f"no outcome within {self.p['timeout']} s")
 
     def finish(self, outcome: str, steps: int = 0, detail: str = "", final=None, **extra) -> None:
