@@ -13,14 +13,18 @@
 #
 #   scripts/run_mission.sh [--scenario NAME|FILE] [--seed N] [--policy FILE|baseline] [--timeout S]
 #                          [--time-scale X] [--record DIR] [--png FILE] [--out DIR] [--ns NS]
-#                          [--goal-topic TOPIC] [--keep]
+#                          [--goal-topic TOPIC] [--keep] [--sensor PROFILE] [--sim-param NAME:=VALUE ...]
+#
+# --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
+# policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
+# --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0).
 #
 # Isolated by ROS_DOMAIN_ID (unless set, a free one is picked: no DDS participant seen on it for
 # 1 s). Node logs go to <out>/logs/.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scenario=full_cage seed=0 policy="" timeout=120 time_scale=20.0 record="" png="" out="$root/out"
-ns=/cage goal_topic=/goal_pose keep=0
+ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --scenario) scenario=$2; shift 2 ;;
@@ -34,7 +38,9 @@ while [ $# -gt 0 ]; do
     --ns) ns=$2; shift 2 ;;
     --goal-topic) goal_topic=$2; shift 2 ;;
     --keep) keep=1; shift ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    --sensor) sensor=$2; shift 2 ;;
+    --sim-param) sim_params+=(-p "$2"); shift 2 ;;
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "run_mission.sh: unknown argument $1" >&2; exit 64 ;;
   esac
 done
@@ -114,13 +120,14 @@ trap 'on_signal HUP 129' HUP
 echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_DOMAIN_ID=$ROS_DOMAIN_ID time_scale=$time_scale ns=$ns"
 policy_args=()
 [ -n "$policy" ] && policy_args=(-p "policy:=$policy")
+[ -n "$sensor" ] && policy_args+=(-p "sensor:=$sensor") && sim_params+=(-p "sensor:=$sensor")
 [ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -r "__ns:=$ns" -p "output:=$record"
 start policy_node cage_reactive_ddpg policy_node --ros-args "${shared[@]}" "${policy_args[@]}"
 start rrt_node cage_global_rrt rrt_node --ros-args "${rrt_params[@]}" "${shared[@]}"
 start navigator_node cage_sim navigator_node --ros-args "${shared[@]}" -r "goal_pose:=$goal_topic" \
   -p "planner_config:=$cfg/cage_global_rrt/config/rrt.yaml"
 start vehicle_node cage_sim vehicle_node --ros-args "${shared[@]}"
-start sim_node cage_sim sim_node --ros-args "${shared[@]}"
+start sim_node cage_sim sim_node --ros-args "${shared[@]}" "${sim_params[@]}"
 
 start mission_client cage_sim mission_client --ros-args "${shared[@]}" -p "timeout:=$timeout" -p "png:=$png"
 client=$!

@@ -11,8 +11,10 @@ import yaml
 from cage_global_rrt.routes import RoutePlanner
 from cage_reactive_ddpg.evaluate import load_driver
 from cage_sim.controller import ArcController
+from cage_sim.driver import Driver
 from cage_sim.env import CageNavEnv
-from cage_sim.rollout import run_episode
+from cage_sim.mission import EnvConfig
+from cage_sim.rollout import drive_episode
 
 from graph_testlib import ROOT
 
@@ -29,9 +31,41 @@ def run_script(env, *args, timeout=240) -> tuple[int, dict | None, str]:
     return proc.returncode, result, proc.stdout + proc.stderr
 
 
-def offline(policy, scenario="full_cage", seed=0):
-    env = CageNavEnv(scenario, waypoint_fn=RoutePlanner())
-    return run_episode(env, policy, seed=seed)
+def offline(policy, scenario="full_cage", seed=0, config: EnvConfig | None = None):
+    """The graph's offline reference: the same Driver (observation, DVL drift, return motion) as policy_node."""
+    config = config or EnvConfig()
+    env = CageNavEnv(scenario, config, waypoint_fn=RoutePlanner())
+    return drive_episode(env, Driver(policy, config.layout, config.vehicle), seed=seed)
+
+
+FLS = ROOT / "ros2_ws/src/cage_reactive_ddpg/cage_reactive_ddpg/weights/policy_fls.safetensors"
+CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varying), small obstacles
+
+
+def test_fls_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path):
+    """The v2 policy (fls scan + memory + DVL velocity) behind the shield, sim_node sensor:=fls, in a
+    current: same outcome, same decisions, final pose within 1e-6 m of the offline Driver. The sonar's
+    noise is off on both sides (the graph scans every odometry, offline every decision: the noise
+    streams cannot be the same draws)."""
+    from dataclasses import replace
+    from cage_reactive_ddpg.policy import env_config_for
+    from cage_sim.sonar import make_sonar
+    rc, result, log = run_script(ros_env, "--out", str(tmp_path), "--policy", str(FLS), "--sensor", "fls",
+                                 "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0", "--timeout", "120",
+                                 "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
+    assert result is not None, log
+    driver, _, meta = load_driver(str(FLS), sensor="fls")
+    config = replace(env_config_for(meta), sonar=make_sonar("fls", noise_std=0.0, dropout=0.0))
+    ep = offline(driver, CURRENT, 1, config)
+    assert ep.outcome == "goal" and ep.steps > 30          # a real mission, drifting 0.25 m/s
+    assert result["outcome"] == ep.outcome and result["steps"] == ep.steps, log
+    assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
+
+
+def test_a_policy_of_another_profile_is_refused_by_name(ros_env, tmp_path):
+    rc, result, log = run_script(ros_env, "--out", str(tmp_path), "--policy", str(FLS), "--sensor", "study",
+                                 "--timeout", "30")
+    assert rc == 70 and "trained for sensor profile 'fls'" in log and "'study'" in log, log
 
 
 @pytest.mark.parametrize("policy", ["shipped", "baseline"])

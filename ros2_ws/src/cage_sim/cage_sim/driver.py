@@ -59,7 +59,9 @@ class Driver:
 
     def observe(self, scan: "Scan | np.ndarray", pose, t: float, v_ground, dist: float, err: float) -> np.ndarray:
         """The policy's observation from a scan (a ``Scan`` with beam stamps, or plain ranges of now)."""
-        v = v_ground if getattr(self.layout, "velocity", False) else None
+        v = None
+        if getattr(self.layout, "velocity", False):   # unknown: the commanded through-water velocity (no drift)
+            v = v_ground if v_ground is not None else (self.vehicle.speed, 0.0)
         x, y, yaw = pose
         if isinstance(scan, Scan):
             return self.builder.build_scan(scan, x, y, yaw, t, dist, err, v)

@@ -3,8 +3,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
 
 from .controller import Policy
+from .driver import Driver, Moment, decide_batch
 from .env import CageNavEnv
 from .scenarios import Scenario
 
@@ -31,6 +33,26 @@ def run_episode(env: CageNavEnv, policy: Policy, seed: int | None = None,
         obs, r, term, trunc, info = env.step(policy.act(obs))
         total += r
         min_clear = min(min_clear, m.scene.clearance(m.x, m.y, m.t))   # fish where they are now
+        if term or trunc:
+            break
+    return Episode(m.scenario, info["outcome"], info["steps"], total, info["travelled"],
+                   info["route_length"], list(m.track), min_clear)
+
+
+def drive_episode(env: CageNavEnv, driver: Driver, seed: int | None = None,
+                  scenario: Scenario | None = None) -> Episode:
+    """One seeded episode decided by ``driver`` exactly as policy_node decides (``cage_sim.driver``:
+    perception with the DVL's drift and the returns' motion): the graph's offline reference."""
+    obs, info = env.reset(seed=seed, options={"scenario": scenario} if scenario else None)
+    m = env.mission
+    driver.reset()
+    total, min_clear = 0.0, m.scene.clearance(m.x, m.y)
+    while True:
+        moment = Moment(m.pose, m.t, m.velocity_over_ground(), m.tracker.at_last)
+        acts, _ = decide_batch([driver], np.asarray(obs)[None], [moment])
+        obs, r, term, trunc, info = env.step(acts)
+        total += r
+        min_clear = min(min_clear, m.scene.clearance(m.x, m.y, m.t))
         if term or trunc:
             break
     return Episode(m.scenario, info["outcome"], info["steps"], total, info["travelled"],

@@ -74,6 +74,16 @@ def scan_msg(ranges: np.ndarray, sonar: SonarModel, ns: int, frame: str = "base_
     return msg
 
 
+def laserscan_msg(fields: dict, frame: str = "base_link") -> LaserScan:
+    """A LaserScan from ``sonar.laserscan_fields`` (the profile's sector, timing, beam order)."""
+    msg = LaserScan()
+    msg.header.stamp, msg.header.frame_id = time_msg(int(round(fields["stamp"] * 1e9))), frame
+    for k in ("angle_min", "angle_max", "angle_increment", "time_increment", "scan_time", "range_min", "range_max"):
+        setattr(msg, k, float(fields[k]))
+    msg.ranges = [float(r) for r in fields["ranges"]]
+    return msg
+
+
 def path_msg(points: Iterable[Sequence[float]], ns: int, frame: str = "map") -> Path:
     msg = Path()
     msg.header.stamp, msg.header.frame_id = time_msg(ns), frame

@@ -25,11 +25,13 @@ class ScanSpec:
     frame_id: str
     max_invalid_fraction: float = 0.25
     angle_tolerance: float = 1e-4  # rad: float32 on the wire, not a different sensor
+    rotating: bool = False         # a mechanical head: published from its oldest beam, so angle_min is
+    #                                any beam's angle (``sonar.scan_from_laserscan`` checks the sector)
 
     @classmethod
     def from_sonar(cls, sonar, frame_id: str, max_invalid_fraction: float = 0.25) -> "ScanSpec":
         return cls(int(sonar.n_beams), float(sonar.angle_min), float(sonar.angle_increment), frame_id,
-                   float(max_invalid_fraction))
+                   float(max_invalid_fraction), rotating=bool(getattr(sonar, "mechanical", False)))
 
 
 def scan_problem(spec: ScanSpec, frame_id: str, angle_min: float, angle_increment: float,
@@ -37,7 +39,7 @@ def scan_problem(spec: ScanSpec, frame_id: str, angle_min: float, angle_incremen
     """One line saying why the scan cannot be used, or None if it can."""
     if spec.frame_id and frame_id != spec.frame_id:
         return f"scan in frame {frame_id[:40]!r}, expected {spec.frame_id!r}"
-    if not (math.isfinite(angle_min) and abs(wrap(angle_min - spec.angle_min)) <= spec.angle_tolerance):
+    if not math.isfinite(angle_min) or (not spec.rotating and abs(wrap(angle_min - spec.angle_min)) > spec.angle_tolerance):
         return f"scan angle_min {angle_min:.4g} rad, expected {spec.angle_min:.4g} (a rotated scan)"
     if not (math.isfinite(angle_increment) and abs(angle_increment - spec.angle_increment) <= spec.angle_tolerance):
         return f"scan angle_increment {angle_increment:.4g} rad, expected {spec.angle_increment:.4g}"

@@ -19,6 +19,7 @@ mission id, and SOURCE_SHIELD when the shield replaced the policy's action. Topi
 """
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections import OrderedDict
@@ -26,6 +27,7 @@ from collections import OrderedDict
 import numpy as np
 from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
+from cage_sim.driver import Driver
 from cage_sim.mission import EnvConfig
 from cage_sim.nodes.node_common import VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle
 from cage_sim.nodes.node_runner import run_node
@@ -33,6 +35,7 @@ from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stam
 from cage_sim.recovery import joining_under_way, remaining_route
 from cage_sim.route import RouteTracker
 from cage_sim.scan_check import ScanSpec, scan_problem
+from cage_sim.sonar import PROFILE_NAMES, scan_from_laserscan
 from cage_sim.watchdog import Silence
 from cage_sim.shield import SafetyShield
 from nav_msgs.msg import Odometry
@@ -40,9 +43,19 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
-from ..policy import PolicyLoadError, load_policy
+from ..policy import PolicyLoadError, env_config_for, load_policy, paths, shipped_path
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def trained_layout(spec: str | None):
+    """The observation layout of the policy file's training config (``env_config_for``), or None
+    when the metadata cannot say (``load_policy`` then names what is wrong with the file)."""
+    try:
+        meta = json.loads(paths(spec if spec is not None else shipped_path())[1].read_text())
+        return env_config_for(meta).layout if isinstance(meta, dict) else None
+    except Exception:   # noqa: BLE001 - any malformed file is load_policy's to report
+        return None
 
 
 class PolicyNode(Node):
@@ -52,16 +65,19 @@ class PolicyNode(Node):
         self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
                          replan_after=40, min_progress=2.0, waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
-        self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0))
+        self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor=""))
         self.check_parameters()
-        self.layout = EnvConfig().layout
-        self.scan_spec = ScanSpec.from_sonar(EnvConfig().sonar, self.p["sensor_frame_id"], self.p["max_invalid_fraction"])
         self.scan_timeout_ns = int(round(self.p["scan_timeout"] * 1e9))
         self.last_scan_ns: int | None = None          # sim time of the last scan: the decision watchdog
         self.scans_wall = Silence(self.p["liveness_timeout"])   # wall time: the simulator's liveness
         self.republished_wall = 0.0
         self.missions_seen = 0
-        self.policy, self.source = self.load(self.p["policy"])
+        policy, self.source, env = self.load(self.p["policy"])
+        self.layout, self.sonar = env.layout, env.sonar    # the policy's own observation and sensor profile
+        self.driver = Driver(policy, self.layout, self.vehicle)
+        self.scan_spec = ScanSpec.from_sonar(self.sonar, self.p["sensor_frame_id"], self.p["max_invalid_fraction"])
+        self.twists: OrderedDict[int, tuple[float, float]] = OrderedDict()   # DVL: body velocity over ground
+        self.last_beam = -math.inf                    # latest beam time of the scan last decided on
         self.period_ns = decision_period_ns(self.vehicle)
         self.tracker: RouteTracker | None = None
         self.mission_id = 0
@@ -100,7 +116,7 @@ class PolicyNode(Node):
                     self.get_logger().info(f"shield {prm.value}: no effect on the classical baseline")
                     continue
                 raw = self.policy.policy if isinstance(self.policy, SafetyShield) else self.policy
-                self.policy = SafetyShield(raw, ArcController(self.layout, self.vehicle)) if prm.value else raw
+                self.driver.policy = SafetyShield(raw, ArcController(self.layout, self.vehicle)) if prm.value else raw
                 self.get_logger().info(f"safety shield {'on' if prm.value else 'off'} from the next decision")
         return SetParametersResult(successful=True)
 
@@ -119,22 +135,36 @@ class PolicyNode(Node):
         check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0,
               "> 0 s")
 
+    @property
+    def policy(self):
+        return self.driver.policy
+
     def load(self, spec: str):
+        """(driver policy, setpoint source, EnvConfig): the policy's own sensor and observation layout
+        (``env_config_for``); ``sensor`` must name the policy's profile (else one line, exit 2)."""
+        sensor = self.p["sensor"] or None
+        if sensor is not None and sensor not in PROFILE_NAMES:
+            check("sensor", sensor, False, f"one of {', '.join(PROFILE_NAMES)} (or empty: the policy's)")
         if spec == "baseline":
-            self.get_logger().info("driving with the classical baseline (ArcController)")
-            return ArcController(self.layout, self.vehicle), HeadingSetpoint.SOURCE_BASELINE
+            env = EnvConfig(vehicle=self.vehicle, sonar=sensor or "study")
+            self.get_logger().info(f"driving with the classical baseline (ArcController), sensor {env.sonar.profile!r}")
+            return ArcController(env.layout, self.vehicle), HeadingSetpoint.SOURCE_BASELINE, env
         try:
-            pol = load_policy(spec or None, self.layout, self.vehicle)
+            # the layout the policy's training config builds, so a file whose recorded layout differs
+            # from it is refused naming the field (not by an opaque network size)
+            pol = load_policy(spec or None, trained_layout(spec or None), self.vehicle, profile=sensor)
+            env = env_config_for(pol.metadata)
         except PolicyLoadError as err:
             raise ValueError(str(err)) from None
         except (AttributeError, KeyError, TypeError, IndexError) as err:   # a metadata field of the wrong shape
             raise ValueError(f"policy {spec or 'shipped'}: malformed metadata ({type(err).__name__}: {err})") from None
         rates = pol.metadata.get("evaluation", {}).get("rates", {})
-        self.get_logger().info(f"policy {pol.path} loaded (training evaluation: {rates}); "
+        self.get_logger().info(f"policy {pol.path} loaded (sensor {pol.profile!r}, layout "
+                               f"{pol.layout.to_dict().get('name')}; training evaluation: {rates}); "
                                f"safety shield {'on' if self.p['shield'] else 'off'}")
         if self.p["shield"]:
-            return SafetyShield(pol, ArcController(self.layout, self.vehicle)), HeadingSetpoint.SOURCE_POLICY
-        return pol, HeadingSetpoint.SOURCE_POLICY
+            return SafetyShield(pol, ArcController(pol.layout, self.vehicle)), HeadingSetpoint.SOURCE_POLICY, env
+        return pol, HeadingSetpoint.SOURCE_POLICY, env
 
     # --- inputs ----------------------------------------------------------------------------
     def on_odom(self, msg: Odometry) -> None:
@@ -144,8 +174,11 @@ class PolicyNode(Node):
                                       throttle_duration_sec=5.0)
             return
         self.odoms[t_ns] = pose
+        self.twists[t_ns] = (float(msg.twist.twist.linear.x), float(msg.twist.twist.linear.y))
         while len(self.odoms) > 64:
             self.odoms.popitem(last=False)
+        while len(self.twists) > 64:
+            self.twists.popitem(last=False)
         self.watch_scans_sim(t_ns, pose)
 
     def watch_scans_sim(self, t_ns: int, pose) -> None:
@@ -198,6 +231,7 @@ class PolicyNode(Node):
         if t_ns < 0:
             self.get_logger().warning("ignoring a scan with a negative stamp", throttle_duration_sec=5.0)
             return
+        t_ns = self.decision_stamp(t_ns, msg)
         self.last_scan_ns = t_ns if self.last_scan_ns is None else max(self.last_scan_ns, t_ns)
         if self.scan_stale:
             self.scan_stale = False
@@ -224,12 +258,21 @@ class PolicyNode(Node):
         if problem is not None:
             self.failsafe(t_ns, pose, problem)   # a rotated or foreign scan is never used
             return
-        self.decide(t_ns, pose, np.asarray(msg.ranges, dtype=np.float64))
+        self.decide(t_ns, pose, msg)
+
+    def decision_stamp(self, t_ns: int, msg: LaserScan) -> int:
+        """The sim time the scan is for: its stamp (REP 117: the first beam), or for a mechanical head
+        (published oldest beam first) the decision at which its latest beam fired."""
+        if not self.sonar.mechanical or not math.isfinite(msg.time_increment) or msg.time_increment <= 0:
+            return t_ns
+        last = t_ns + int(round((len(msg.ranges) - 1) * msg.time_increment * 1e9))
+        boundary = -(-last // self.period_ns) * self.period_ns
+        return boundary if boundary - last <= int(2 * msg.time_increment * 1e9) + 1_000_000 else last
 
     # --- decision --------------------------------------------------------------------------
     def scan_problem(self, ranges: np.ndarray) -> str | None:
-        if ranges.shape != (self.layout.n_beams,):
-            return f"scan has {ranges.size} ranges, the policy needs {self.layout.n_beams}"
+        if ranges.shape != (self.sonar.n_beams,):
+            return f"scan has {ranges.size} ranges, the policy needs {self.sonar.n_beams}"
         invalid = np.isnan(ranges) | (ranges < 0)
         if invalid.mean() > self.p["max_invalid_fraction"]:
             return f"{int(invalid.sum())} of {ranges.size} ranges are invalid (NaN or negative)"
@@ -238,8 +281,9 @@ class PolicyNode(Node):
                                       throttle_duration_sec=5.0)
         return None
 
-    def decide(self, t_ns: int, pose: tuple[float, float, float], ranges: np.ndarray) -> None:
+    def decide(self, t_ns: int, pose: tuple[float, float, float], msg: LaserScan) -> None:
         x, y, yaw = pose
+        ranges = np.asarray(msg.ranges, dtype=np.float64)
         problem = self.scan_problem(ranges)
         if problem is not None:
             self.failsafe(t_ns, pose, problem)
@@ -252,19 +296,35 @@ class PolicyNode(Node):
                 self.get_logger().info(f"mission {self.mission_id}: joined under way at t={t_ns / 1e9:.1f} s, "
                                        f"{len(route)} of {len(self.route)} waypoints ahead")
             self.tracker = RouteTracker((x, y), route, self.p["waypoint_radius"])
+            self.driver.reset()                    # memory and return motion start with the mission
+            self.last_beam = -math.inf
             self.get_logger().info(f"mission {self.mission_id}: first decision at t={t_ns / 1e9:.1f} s, "
                                    f"route {self.tracker.length:.1f} m")
         self.tracker.advance(x, y)
-        dist, err = self.tracker.waypoint(x, y, yaw)
-        obs = self.layout.build(ranges, dist, err)
-        overrides = getattr(self.policy, "interventions", 0)
-        action = float(np.clip(np.asarray(self.policy.act(obs)).reshape(-1)[0], -1.0, 1.0))
-        shielded = getattr(self.policy, "interventions", 0) != overrides
+        dist, _ = self.tracker.waypoint(x, y, yaw)
+        try:
+            scan = scan_from_laserscan(ranges, msg.angle_min, msg.angle_increment, stamp_ns(msg.header.stamp) / 1e9,
+                                       msg.time_increment if self.sonar.mechanical else 0.0, self.sonar, pose,
+                                       self.last_beam)
+        except ValueError as err:
+            self.failsafe(t_ns, pose, str(err))
+            return
+        self.last_beam = max(self.last_beam, float(scan.stamps.max()))
+        action, shielded = self.driver.decide(scan, pose, t_ns / 1e9, self.dvl(t_ns), self.tracker)
         source = HeadingSetpoint.SOURCE_SHIELD if shielded else self.source
         self.publish_setpoint(t_ns, yaw + action * self.vehicle.max_turn, self.vehicle.speed, source)
         self.get_logger().debug(f"decision {t_ns // self.period_ns}: action {action:+.3f}"
                                 f"{' (shield)' if shielded else ''}, waypoint {dist:.1f} m")
         self.watch_progress(t_ns, pose)
+
+    def dvl(self, t_ns: int) -> tuple[float, float] | None:
+        """The odometry twist at ``t_ns`` as the DVL's body-frame velocity over ground; None when there
+        is none or it is exactly zero (a source that leaves the twist unset, or a vehicle holding
+        station): the driver then assumes no drift instead of a vehicle "drifting" backwards at its speed."""
+        v = self.twists.get(t_ns)
+        if v is None or v == (0.0, 0.0) or not all(math.isfinite(c) for c in v):
+            return None
+        return v
 
     def publish_setpoint(self, t_ns: int, heading: float, speed: float, source: int) -> None:
         sp = HeadingSetpoint(heading=float(math.atan2(math.sin(heading), math.cos(heading))), speed=float(speed),

@@ -39,3 +39,31 @@ def check(name: str, value, ok: bool, want: str) -> None:
     """Refuse a parameter with one line naming it (``run_node`` turns the ValueError into exit 2)."""
     if not ok:
         raise ValueError(f"parameter {name}:={value!r} is invalid: must be {want}")
+
+
+# Sensor overrides a launch may set on top of the profile; -1 (the default) = the profile's own value.
+SENSOR_OVERRIDES = {"n_beams": -1, "max_range": -1.0, "noise_std": -1.0, "dropout": -1.0, "clutter": -1.0}
+
+
+def declare_sensor(node, default: str = "study"):
+    """Declare ``sensor`` (a profile name of ``cage_sim.sonar``) and its overrides; the SonarModel.
+
+    One line naming the parameter for an unknown profile or a bad override (exit 2), as ``check``."""
+    from ..sonar import PROFILE_NAMES, SonarConfigError, make_sonar
+    p = declare(node, sensor=default, **SENSOR_OVERRIDES)
+    check("sensor", p["sensor"], p["sensor"] in PROFILE_NAMES, f"one of {', '.join(PROFILE_NAMES)}")
+    n = p["n_beams"]
+    check("n_beams", n, isinstance(n, int) and not isinstance(n, bool) and (n == -1 or 1 <= n <= 4096),
+          "in [1, 4096] (-1: the profile's)")
+    given = {"n_beams": n} if n != -1 else {}
+    for k in ("max_range", "noise_std", "dropout", "clutter"):
+        v = p[k]
+        check(k, v, isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+              and (v == -1 or v >= 0), ">= 0 (-1: the profile's)")
+        if v != -1:
+            given[k] = float(v)
+    try:
+        return make_sonar(p["sensor"], **given)
+    except SonarConfigError as err:
+        name = str(err).split(":", 1)[0].removeprefix("sonar.")
+        raise ValueError(f"parameter {name}:={given.get(name, p['sensor'])!r} is invalid: {str(err).split(':', 1)[-1].strip()}") from None

@@ -34,14 +34,14 @@ from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..mission import EnvConfig, Mission
-from .node_common import check, decision_period_ns, declare, declare_vehicle
+from .node_common import check, decision_period_ns, declare, declare_sensor, declare_vehicle
 from .node_runner import run_node
 from ..recovery import joining_under_way, remaining_route
 from ..route import RouteTracker
-from ..ros_convert import (OUTCOME_EVENTS, mission_points, odom_pose, path_msg, scan_msg, stamp_ns, time_msg,
+from ..ros_convert import (OUTCOME_EVENTS, laserscan_msg, mission_points, odom_pose, path_msg, stamp_ns, time_msg,
                           world_to_map)
 from ..scenarios import draw_scenario
-from ..sonar import SonarModel
+from ..sonar import laserscan_fields
 from ..watchdog import Silence
 from ..world import World
 
@@ -53,11 +53,10 @@ class SimNode(Node):
         super().__init__("sim_node")
         vehicle = declare_vehicle(self)
         p = declare(self, scenario="full_cage", seed=0, frame_id="map", sensor_frame_id="base_link",
-                    n_beams=72, max_range=20.0, noise_std=0.0, dropout=0.0, marker_rate=2.0, liveness_timeout=2.0)
+                    marker_rate=2.0, liveness_timeout=2.0)
         self.p = p
+        self.sonar = declare_sensor(self)          # the profile's beams, timing and noise (+ overrides)
         fin = lambda v: isinstance(v, (int, float)) and math.isfinite(v)  # noqa: E731
-        check("n_beams", p["n_beams"], isinstance(p["n_beams"], int) and 1 <= p["n_beams"] <= 4096, "in [1, 4096]")
-        check("max_range", p["max_range"], fin(p["max_range"]) and p["max_range"] > 0, "> 0")
         check("marker_rate", p["marker_rate"], fin(p["marker_rate"]) and 0 < p["marker_rate"] <= 100, "in (0, 100] Hz")
         check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0, "> 0 s")
         self.odom_silence = Silence(p["liveness_timeout"])   # the vehicle node's liveliness, in wall time
@@ -66,8 +65,8 @@ class SimNode(Node):
         self.started_missions = 0
         self.scenario = draw_scenario(p["scenario"], p["seed"])
         self.world: World = self.scenario.world
-        self.sonar = SonarModel(n_beams=p["n_beams"], angle_increment=2 * math.pi / p["n_beams"],
-                                max_range=p["max_range"], noise_std=p["noise_std"], dropout=p["dropout"])
+        self.head = self.sonar.head()              # stateful: a scanning head fires the beams due
+        self.rng = np.random.default_rng(p["seed"])   # the sonar's noise, dropout and clutter
         self.config = EnvConfig(vehicle=vehicle, sonar=self.sonar)
         self.period_ns = decision_period_ns(vehicle)
         self.mission: Mission | None = None
@@ -88,6 +87,8 @@ class SimNode(Node):
 
         # Compile (or load from numba's cache) the sonar before anyone waits on a scan.
         self.sonar.scan(self.world, *self.scenario.start)
+        self.get_logger().info(f"sonar: profile {self.sonar.profile!r}, {self.sonar.n_beams} beams, "
+                               f"fov {math.degrees(self.sonar.fov):.0f} deg")
         self.map_pub.publish(world_to_map(self.world, 0, p["frame_id"]))
         self.marker_pub.publish(self.markers(0))
         self.get_logger().info(
@@ -130,6 +131,7 @@ class SimNode(Node):
                                    f"{len(pts)} waypoints ahead")
         sc = replace(self.scenario.with_waypoints(pts), start=pose, goal=(float(pts[-1][0]), float(pts[-1][1])))
         self.mission = Mission(sc, self.config)
+        self.head = self.sonar.head()   # a new mission's sonar starts afresh, as offline
         self.mission_id = msg.id
         self.first_decision = t_ns // self.period_ns
         self.last_judged_ns = t_ns
@@ -165,13 +167,30 @@ class SimNode(Node):
         if self.world.has_moving and now - self.marker_wall >= 1.0 / self.p["marker_rate"]:
             self.marker_wall = now   # bounded rate, moving ones only: 10,000 static markers are sent once
             self.marker_pub.publish(self.markers(t_ns, moving_only=True))
-        ranges = self.sonar.scan(self.world, *pose, t)
-        self.scan_pub.publish(scan_msg(ranges, self.sonar, t_ns, self.p["sensor_frame_id"]))
+        # judge first, then scan: the scan shows the world (fish) after the decision, as offline
         if t_ns % self.period_ns == 0 and self.pending is not None:
             self.start_pending(t_ns, pose)
         elif t_ns % self.period_ns == 0 and t_ns > self.last_judged_ns:
             self.last_judged_ns = t_ns
             self.judge(t_ns, pose)
+        self.publish_scan(t_ns, pose)
+
+    def publish_scan(self, t_ns: int, pose: tuple[float, float, float]) -> None:
+        """The profile's scan from ``pose`` (fish where the judge has them), as a REP 117 LaserScan.
+
+        An electronic sonar scans every odometry; a mechanical head steps once per decision, as the
+        offline ``Mission.sense`` does (the beams it fires in between come from the pose interpolated
+        across the decision), and is republished unchanged between decisions."""
+        scene = self.mission.scene if self.mission is not None else self.world
+        t = t_ns / 1e9
+        at_boundary = t_ns % self.period_ns == 0
+        if self.head.last is None:
+            scan = self.head.reset(scene, *pose, t, self.rng)
+        elif self.sonar.mechanical and not (at_boundary and t > float(self.head.last.stamps.max())):
+            scan = self.head.last
+        else:
+            scan = self.head.update(scene, *pose, t, self.rng)
+        self.scan_pub.publish(laserscan_msg(laserscan_fields(scan, self.sonar), self.p["sensor_frame_id"]))
 
     def judge(self, t_ns: int, pose: tuple[float, float, float]) -> None:
         m = self.mission

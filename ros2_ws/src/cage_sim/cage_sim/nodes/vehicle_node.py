@@ -233,9 +233,13 @@ class VehicleNode(Node):
         odom.child_frame_id = self.p["child_frame_id"]
         odom.pose.pose.position.x, odom.pose.pose.position.y = float(self.x), float(self.y)
         odom.pose.pose.orientation = yaw_to_quaternion(self.yaw)
-        moving = self.setpoint is not None and not self.finished and self.stopped_reason is None
-        if moving and self.speed_now > 0:   # twist: velocity over ground in the body frame (REP 105), as a DVL
-            v = velocity_over_ground(self.yaw, self.speed_now, self.current.velocity(self.x, self.y, self.t_ns / 1e9))
+        flying = not self.finished and self.stopped_reason is None
+        # A mission's first decision: the clock stands until the first setpoint, and the vehicle flies
+        # from this pose at its speed (the offline model has no spin-up), so the DVL reading it reports
+        # is that flight's, not "at rest": the policy's shield and baseline see the drift offline does.
+        speed = self.speed_now if self.setpoint is not None else (self.vehicle.speed if self.mission_id else 0.0)
+        if flying and speed > 0:   # twist: velocity over ground in the body frame (REP 105), as a DVL
+            v = velocity_over_ground(self.yaw, speed, self.current.velocity(self.x, self.y, self.t_ns / 1e9))
             odom.twist.twist.linear.x, odom.twist.twist.linear.y = float(v[0]), float(v[1])
         # holding station (or not flying): zero over ground
         self.odom_pub.publish(odom)
