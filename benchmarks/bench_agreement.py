@@ -7,6 +7,13 @@ Prints outcome rates side by side, the share of missions with the same outcome a
 of decisions, and ends with one JSON line. Target (issue 6): rates within 2 points.
 
     .venv/bin/python benchmarks/bench_agreement.py [--missions 100] [--scenario cage] [--policy baseline]
+    .venv/bin/python benchmarks/bench_agreement.py --missions 20 --scenario 'cage?current=0.5&obstacles=small' \
+        --policy <weights/policy_fls.safetensors> --sensor fls --shield off     # a set with collisions
+
+Both sides decide through ``cage_sim.driver`` (the offline side with ``rollout.drive_episode``) with the
+policy's own sensor profile and observation. ``--noise off`` (default) switches the sonar's noise,
+dropout and clutter off on both sides: the graph scans every odometry and offline every decision, so
+their noise draws cannot be the same.
 """
 from __future__ import annotations
 
@@ -24,12 +31,19 @@ ROOT = Path(__file__).resolve().parents[1]
 OUTCOMES = ("goal", "collision", "wander", "timeout")
 
 
-def graph_mission(scenario: str, seed: int, policy: str, time_scale: float) -> dict:
+def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sensor: str = "", shield: str = "on",
+                  noise: str = "off") -> dict:
     with tempfile.TemporaryDirectory() as out:
         cmd = ["bash", str(ROOT / "scripts/run_mission.sh"), "--scenario", scenario, "--seed", str(seed),
                "--out", out, "--png", "", "--time-scale", str(time_scale), "--timeout", "180"]
         if policy:
             cmd += ["--policy", policy]
+        if sensor:
+            cmd += ["--sensor", sensor]
+        if shield == "off":
+            cmd += ["--shield", "off"]
+        if noise == "off":
+            cmd += [a for k in ("noise_std", "dropout", "clutter") for a in ("--sim-param", f"{k}:=0.0")]
         env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT)
     for line in proc.stdout.splitlines():
@@ -38,14 +52,24 @@ def graph_mission(scenario: str, seed: int, policy: str, time_scale: float) -> d
     return {"outcome": "error", "steps": 0, "detail": proc.stderr[-400:]}
 
 
-def offline_missions(scenario: str, seeds: list[int], policy: str) -> list:
+def offline_missions(scenario: str, seeds: list[int], policy: str, sensor: str = "", shield: str = "on",
+                     noise: str = "off") -> list:
+    from dataclasses import replace
     from cage_global_rrt.routes import RoutePlanner
     from cage_reactive_ddpg.evaluate import load_driver
+    from cage_reactive_ddpg.policy import env_config_for
+    from cage_sim.driver import Driver
     from cage_sim.env import CageNavEnv
-    from cage_sim.rollout import run_episode
-    pol, _, _ = load_driver(policy or None)   # a learned policy behind the shield, as the node runs it
-    env = CageNavEnv(scenario, waypoint_fn=RoutePlanner())
-    return [run_episode(env, pol, seed=s) for s in seeds]
+    from cage_sim.mission import EnvConfig
+    from cage_sim.rollout import drive_episode
+    from cage_sim.sonar import make_sonar
+    # a learned policy behind the shield unless --shield off, as the node runs it
+    pol, _, meta = load_driver(policy or None, shield == "on", sensor or None)
+    config = env_config_for(meta) if meta else EnvConfig(sonar=sensor or "study")
+    if noise == "off":
+        config = replace(config, sonar=make_sonar(config.sonar, noise_std=0.0, dropout=0.0, clutter=0.0))
+    env = CageNavEnv(scenario, config, waypoint_fn=RoutePlanner())
+    return [drive_episode(env, Driver(pol, config.layout, config.vehicle), seed=s) for s in seeds]
 
 
 def main() -> None:
@@ -55,15 +79,19 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--policy", default="", help="policy file, 'baseline', or empty for the shipped weights")
     ap.add_argument("--time-scale", type=float, default=100.0)
+    ap.add_argument("--sensor", default="", help="sonar profile (default: the policy's; study for the baseline)")
+    ap.add_argument("--shield", default="on", choices=["on", "off"], help="off: the raw learned policy")
+    ap.add_argument("--noise", default="off", choices=["on", "off"], help="sonar noise/dropout/clutter (see above)")
     args = ap.parse_args()
     seeds = list(range(args.first_seed, args.first_seed + args.missions))
     t0 = time.perf_counter()
-    offline = offline_missions(args.scenario, seeds, args.policy)
+    offline = offline_missions(args.scenario, seeds, args.policy, args.sensor, args.shield, args.noise)
     t_off = time.perf_counter() - t0
     graph = []
     t0 = time.perf_counter()
     for i, s in enumerate(seeds):
-        graph.append(graph_mission(args.scenario, s, args.policy, args.time_scale))
+        graph.append(graph_mission(args.scenario, s, args.policy, args.time_scale, args.sensor, args.shield,
+                                   args.noise))
         if (i + 1) % 10 == 0 or i + 1 == len(seeds):
             same = sum(g["outcome"] == o.outcome for g, o in zip(graph, offline))
             print(f"  {i + 1}/{len(seeds)} missions, {same} same outcome, {time.perf_counter() - t0:.0f} s",
@@ -74,7 +102,8 @@ def main() -> None:
     o_counts = Counter(o.outcome for o in offline)
     same_outcome = sum(g["outcome"] == o.outcome for g, o in zip(graph, offline))
     same_steps = sum(g["outcome"] == o.outcome and g["steps"] == o.steps for g, o in zip(graph, offline))
-    print(f"\n{n} missions of '{args.scenario}', policy {args.policy or 'shipped'}")
+    print(f"\n{n} missions of '{args.scenario}', policy {args.policy or 'shipped'}, sensor "
+          f"{args.sensor or 'the policy s'}, shield {args.shield}, sonar noise {args.noise}")
     print(f"{'outcome':10s} {'graph %':>8s} {'offline %':>10s} {'diff (points)':>14s}")
     diffs = {}
     for k in OUTCOMES + (("error",) if g_counts["error"] else ()):
@@ -87,6 +116,7 @@ def main() -> None:
                    "offline_steps": o.steps} for s, g, o in zip(seeds, graph, offline)
                   if g["outcome"] != o.outcome or g["steps"] != o.steps]
     print(json.dumps({"missions": n, "scenario": args.scenario, "policy": args.policy or "shipped",
+                      "sensor": args.sensor, "shield": args.shield, "noise": args.noise,
                       "graph": dict(g_counts), "offline": dict(o_counts), "diff_points": diffs,
                       "same_outcome": same_outcome, "same_outcome_and_steps": same_steps,
                       "mismatches": mismatches[:20], "graph_s": t_graph, "offline_s": t_off}))

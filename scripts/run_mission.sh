@@ -17,14 +17,15 @@
 #
 # --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
 # policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
-# --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0).
+# --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0);
+# --shield off runs a learned policy raw (no safety shield).
 #
 # Isolated by ROS_DOMAIN_ID (unless set, a free one is picked: no DDS participant seen on it for
 # 1 s). Node logs go to <out>/logs/.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scenario=full_cage seed=0 policy="" timeout=120 time_scale=20.0 record="" png="" out="$root/out"
-ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=()
+ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=() shield=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --scenario) scenario=$2; shift 2 ;;
@@ -40,6 +41,7 @@ while [ $# -gt 0 ]; do
     --keep) keep=1; shift ;;
     --sensor) sensor=$2; shift 2 ;;
     --sim-param) sim_params+=(-p "$2"); shift 2 ;;
+    --shield) shield=$2; shift 2 ;;
     -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "run_mission.sh: unknown argument $1" >&2; exit 64 ;;
   esac
@@ -120,6 +122,7 @@ trap 'on_signal HUP 129' HUP
 echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_DOMAIN_ID=$ROS_DOMAIN_ID time_scale=$time_scale ns=$ns"
 policy_args=()
 [ -n "$policy" ] && policy_args=(-p "policy:=$policy")
+[ "$shield" = off ] && policy_args+=(-p "shield:=false")
 [ -n "$sensor" ] && policy_args+=(-p "sensor:=$sensor") && sim_params+=(-p "sensor:=$sensor")
 [ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -r "__ns:=$ns" -p "output:=$record"
 start policy_node cage_reactive_ddpg policy_node --ros-args "${shared[@]}" "${policy_args[@]}"
