@@ -94,7 +94,9 @@ def test_policy_node_refuses_mismatched_weights(launch, tmp_path):
 
 
 def test_vehicle_holds_station_when_setpoints_go_stale(launch, probe):
+    from rosgraph_msgs.msg import Clock
     odoms = probe.listen(Odometry, "/cage/odom")
+    clocks = probe.listen(Clock, "/clock")
     events = probe.listen(MissionEvent, "/cage/mission_event")
     sp_pub = probe.node.create_publisher(HeadingSetpoint, "/cage/heading_setpoint", 10)
     node = launch("cage_sim", "vehicle_node", "-p", "scenario:=study2d", "-p", "seed:=1",
@@ -113,6 +115,10 @@ def test_vehicle_holds_station_when_setpoints_go_stale(launch, probe):
     probe.until(lambda: False, 0.5)
     assert all(o.header.stamp.sec <= 1 for o in odoms[n:]), "the clock stands while waiting"
     assert "no setpoint" in events[-1].detail
+    # /clock carries the vehicle's sim time: it reached the boundary and stands there
+    assert clocks and {(c.clock.sec, c.clock.nanosec) for c in clocks} <= {(o.header.stamp.sec, o.header.stamp.nanosec)
+                                                                            for o in odoms}
+    assert (clocks[-1].clock.sec, clocks[-1].clock.nanosec) == (1, 0)
 
 
 def test_rrt_node_plans_and_reports_failures(launch, probe):

@@ -1,7 +1,9 @@
 """vehicle_node: integrates the heading setpoint with the continuous vehicle model.
 
 Publishes the pose as nav_msgs/Odometry (``odom``) and TF map -> base_link, stamped with
-simulation time (topic names are relative, so ``__ns:=/auv1`` moves the vehicle). It owns the simulation clock: ``time_scale`` sim seconds pass per wall second.
+simulation time (topic names are relative, so ``__ns:=/auv1`` moves the vehicle). It owns the simulation clock: ``time_scale`` sim seconds pass per wall second,
+and publishes it on ``/clock`` (rosgraph_msgs/Clock, with every pose; ``publish_clock``), so RViz,
+rosbag and any node run with ``use_sim_time:=true`` follow sim time as they would a simulator's.
 
 Lockstep (default): at each decision boundary (every step_length / speed sim seconds) the clock
 stops until the setpoint for that boundary arrives (HeadingSetpoint stamped with it), so the graph
@@ -32,6 +34,7 @@ from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry, Path
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
 from tf2_msgs.msg import TFMessage
 
 from .node_common import check, decision_period_ns, declare, declare_vehicle
@@ -42,6 +45,7 @@ from ..vehicle import advance, velocity_over_ground
 from ..watchdog import Silence
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)   # matches rclpy's best-effort TimeSource too
 
 
 def _finite(v) -> bool:
@@ -54,7 +58,7 @@ class VehicleNode(Node):
         self.vehicle = declare_vehicle(self)
         p = declare(self, scenario="full_cage", seed=0, lockstep=True, time_scale=20.0, substeps=10,
                     setpoint_timeout=0.5, liveness_timeout=2.0, idle_publish_rate=10.0, resume=True,
-                    resume_wait=1.0, frame_id="map", child_frame_id="base_link")
+                    resume_wait=1.0, frame_id="map", child_frame_id="base_link", publish_clock=True)
         check("time_scale", p["time_scale"], _finite(p["time_scale"]) and 0.01 <= p["time_scale"] <= 1000,
               "in [0.01, 1000]")
         check("substeps", p["substeps"], 1 <= p["substeps"] <= 1000, "in [1, 1000]")
@@ -85,6 +89,8 @@ class VehicleNode(Node):
 
         self.odom_pub = self.create_publisher(Odometry, "odom", 10)
         self.tf_pub = self.create_publisher(TFMessage, "/tf", 10)
+        # /clock is global in ROS (two vehicles in one domain: publish_clock:=false on all but one)
+        self.clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS) if p["publish_clock"] else None
         self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
         self.create_subscription(HeadingSetpoint, "heading_setpoint", self.on_setpoint, 10)
         self.create_subscription(MissionEvent, "mission_event", self.on_event, 10)
@@ -249,6 +255,8 @@ class VehicleNode(Node):
         tf.transform.translation.x, tf.transform.translation.y = float(self.x), float(self.y)
         tf.transform.rotation = odom.pose.pose.orientation
         self.tf_pub.publish(TFMessage(transforms=[tf]))
+        if self.clock_pub is not None:
+            self.clock_pub.publish(Clock(clock=stamp))
 
 
 def main(args=None) -> None:
