@@ -73,8 +73,9 @@ def test_full_cage_mission_in_the_graph_ends_as_offline(ros_env, tmp_path, polic
     args = ["--out", str(tmp_path), "--timeout", "150"] + (["--policy", "baseline"] if policy == "baseline" else [])
     rc, result, log = run_script(ros_env, *args)
     assert result is not None, log
-    driver, _, _ = load_driver("baseline" if policy == "baseline" else None)   # shipped: behind the shield
-    ep = offline(driver)
+    from cage_reactive_ddpg.policy import env_config_for
+    driver, _, meta = load_driver("baseline" if policy == "baseline" else None)   # shipped: behind the shield
+    ep = offline(driver, config=env_config_for(meta) if meta else None)     # the policy's own layout
     assert ep.outcome == "goal"
     assert rc == 0 and result["outcome"] == "goal", log
     assert result["steps"] == ep.steps

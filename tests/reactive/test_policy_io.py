@@ -92,11 +92,20 @@ def test_corrupt_metadata_and_missing_files_are_refused(saved, tmp_path):
         load_policy(wpath)
 
 
+def open_water(pol, errors) -> np.ndarray:
+    """Observations for the policy's own layout (v1 or v2): nothing seen, waypoint 10 m away at the
+    given heading errors, flying 1 m/s straight ahead over ground (no drift)."""
+    from cage_sim.observation import ObservationBuilder
+    from cage_reactive_ddpg.policy import env_config_for
+    env = env_config_for(pol.metadata)
+    return np.stack([ObservationBuilder(env.layout).build(np.full(env.sonar.n_beams, np.inf), 0.0, 0.0, 0.0, 0.0,
+                                                          10.0, e, (1.0, 0.0)) for e in errors])
+
+
 def test_shipped_policy_loads_and_acts():
     assert shipped_path().is_file(), "the package must ship weights/policy.safetensors"
     pol = load_policy()
-    obs = np.ones((3, OBS), np.float32)
-    obs[:, -1] = [0.5, 0.0, -0.5]           # waypoint to the left, ahead, to the right; nothing seen
+    obs = open_water(pol, [0.5 * math.pi, 0.0, -0.5 * math.pi])   # waypoint to the left, ahead, to the right
     a = pol.act(obs)
     assert a.shape == (3, 1) and np.all(np.abs(a) <= 1.0)
     assert a[0, 0] > 0.5 and a[2, 0] < -0.5, "with open water the policy turns toward the waypoint"
@@ -104,10 +113,13 @@ def test_shipped_policy_loads_and_acts():
 
 
 def mission_observations(n_missions: int = 3) -> np.ndarray:
-    """What the policy really reads: observations along full-cage missions flown by the baseline."""
+    """What the shipped policy really reads: observations (its own layout) along full-cage missions
+    flown by the baseline."""
     from cage_sim.controller import ArcController
     from cage_sim.env import CageNavEnv
-    env, drv, out = CageNavEnv("cage"), ArcController(), []
+    from cage_reactive_ddpg.policy import env_config_for
+    cfg = env_config_for(load_policy().metadata)
+    env, drv, out = CageNavEnv("cage", cfg), ArcController(cfg.layout), []
     for seed in range(n_missions):
         obs, _ = env.reset(seed=seed)
         done = False
@@ -163,11 +175,9 @@ def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_a
     from cage_sim.controller import ArcController
     from cage_sim.shield import SafetyShield
     pol = load_policy()
-    obs = pol.layout.build(np.full(pol.layout.n_beams, np.inf), 10.0, 0.0) if hasattr(pol.layout, "build") \
-        else None
-    if obs is None:
-        pytest.skip("the shipped layout needs the observation builder")
+    obs = open_water(pol, [0.0])[0]
     assert SafetyShield(pol, ArcController(pol.layout)).act(obs)[0] == 0.0
+    assert abs(pol.act(obs)[0]) < 0.3            # the raw policy alone: within 6 deg of straight
 
 
 def test_shipped_fls_policy_is_for_the_fls_profile_only():
