@@ -205,27 +205,32 @@ def test_policy_node_asks_for_a_replan_without_progress(launch, probe):
 
 
 def shield_case():
-    """A scan where the shield overrides the shipped policy (found with the real policy and shield, as
-    the node has them): the vehicle at the origin heading +x, the waypoint 20 m ahead, a wall of
-    returns ahead. Returns (ranges, shielded action, raw action)."""
-    from cage_reactive_ddpg.policy import load_policy
+    """A scan where the shield overrides the shipped policy, found with the real policy, shield and
+    Driver as the node has them (the policy's own layout and memory, no DVL reading): the vehicle at
+    the origin heading +x, the goal 20 m ahead, a wall of returns ahead. Returns (ranges, shielded
+    action, raw action), the raw one as the node decides it at the next decision from the same place."""
+    from cage_reactive_ddpg.policy import env_config_for, load_policy
     from cage_sim.controller import ArcController
-    from cage_sim.mission import EnvConfig
+    from cage_sim.driver import Driver
+    from cage_sim.route import RouteTracker
     from cage_sim.shield import SafetyShield
-    cfg = EnvConfig()
-    layout, vehicle = cfg.layout, cfg.vehicle
-    raw = load_policy(None, layout, vehicle)
+    pol = load_policy()
+    cfg = env_config_for(pol.metadata)
+
+    def decide(policy, ranges, times):
+        drv = Driver(policy, cfg.layout, cfg.vehicle)
+        tracker = RouteTracker((0.0, 0.0), np.array([[20.0, 0.0]]), cfg.waypoint_radius)
+        tracker.advance(0.0, 0.0)
+        return [drv.decide(np.array(ranges), (0.0, 0.0, 0.0), t, None, tracker) for t in times][-1]
+
     for dist in (1.6, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0):
         for half in (2, 4, 6, 9):
             ranges = [math.inf] * 72
             for k in range(-half, half + 1):
-                a = math.radians(5.0 * k)
-                ranges[k % 72] = dist / math.cos(a)
-            obs = layout.build(ranges, 20.0, 0.0)
-            shield = SafetyShield(raw, ArcController(layout, vehicle))
-            shielded = float(np.asarray(shield.act(obs)).reshape(-1)[0])
-            if shield.interventions:
-                return ranges, shielded, float(np.asarray(raw.act(obs)).reshape(-1)[0])
+                ranges[k % 72] = dist / math.cos(math.radians(5.0 * k))
+            shielded, overridden = decide(SafetyShield(pol, ArcController(cfg.layout, cfg.vehicle)), ranges, [0.0])
+            if overridden:
+                return ranges, shielded, decide(pol, ranges, [0.0, 1.0])[0]
     raise AssertionError("no scan found where the shield overrides the policy")
 
 
