@@ -32,7 +32,8 @@ OUTCOMES = ("goal", "collision", "wander", "timeout")
 
 
 def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sensor: str = "", shield: str = "on",
-                  noise: str = "off") -> dict:
+                  noise: str = "off", extra: tuple[str, ...] = ()) -> dict:
+    """One mission through the graph (``extra``: more run_mission.sh arguments); its RESULT line."""
     with tempfile.TemporaryDirectory() as out:
         cmd = ["bash", str(ROOT / "scripts/run_mission.sh"), "--scenario", scenario, "--seed", str(seed),
                "--out", out, "--png", "", "--time-scale", str(time_scale), "--timeout", "180"]
@@ -44,6 +45,7 @@ def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sens
             cmd += ["--shield", "off"]
         if noise == "off":
             cmd += [a for k in ("noise_std", "dropout", "clutter") for a in ("--sim-param", f"{k}:=0.0")]
+        cmd += list(extra)
         env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT)
     for line in proc.stdout.splitlines():
