@@ -137,7 +137,9 @@ start sim_node cage_sim sim_node --ros-args "${shared[@]}" "${sim_params[@]}"
 
 start mission_client cage_sim mission_client --ros-args "${shared[@]}" -p "timeout:=$timeout" -p "png:=$png"
 client=$!
-tail -n +1 -F --pid=$$ "$logs/mission_client.log" 2>/dev/null &  # the client's progress on the console
+# The client's progress on the console. tail follows the client's PID: once the client has exited
+# it prints what is left of the log (the RESULT line) and stops by itself.
+tail -n +1 -F -s 0.1 --pid="$client" "$logs/mission_client.log" 2>/dev/null &
 tailer=$!
 
 # Wait for the client; a node that exits first (start-up refused, or a crash mid-mission) ends the
@@ -170,6 +172,7 @@ if [ $keep -eq 1 ] && [ "$rc" -ne 70 ]; then
     done
   done
 fi
+for _ in $(seq 50); do kill -0 "$tailer" 2>/dev/null || break; sleep 0.1; done   # let it print the last lines
 kill "$tailer" 2>/dev/null; wait "$tailer" 2>/dev/null
 if [ "$rc" -ne 0 ] && [ "$rc" -ne 70 ]; then
   echo "[run_mission] mission failed (exit $rc); last node log lines:" >&2

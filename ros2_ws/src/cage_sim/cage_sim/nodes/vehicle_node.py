@@ -240,10 +240,13 @@ class VehicleNode(Node):
         odom.pose.pose.position.x, odom.pose.pose.position.y = float(self.x), float(self.y)
         odom.pose.pose.orientation = yaw_to_quaternion(self.yaw)
         flying = not self.finished and self.stopped_reason is None
-        # A mission's first decision: the clock stands until the first setpoint, and the vehicle flies
-        # from this pose at its speed (the offline model has no spin-up), so the DVL reading it reports
-        # is that flight's, not "at rest": the policy's shield and baseline see the drift offline does.
-        speed = self.speed_now if self.setpoint is not None else (self.vehicle.speed if self.mission_id else 0.0)
+        # Before the first setpoint the clock stands and the vehicle flies from this pose at its speed
+        # (the offline model has no spin-up), so the DVL reading it reports is that flight's, not "at
+        # rest": the policy's shield and baseline see the drift offline does. Also before the mission
+        # message has arrived: every odometry at the start's stamp then carries the same twist, so the
+        # first decision does not depend on which of them reached the policy first (it did: a 1 cm
+        # graph-vs-offline difference in 1 of ~4 runs).
+        speed = self.speed_now if self.setpoint is not None else self.vehicle.speed
         if flying and speed > 0:   # twist: velocity over ground in the body frame (REP 105), as a DVL
             v = velocity_over_ground(self.yaw, speed, self.current.velocity(self.x, self.y, self.t_ns / 1e9))
             odom.twist.twist.linear.x, odom.twist.twist.linear.y = float(v[0]), float(v[1])
