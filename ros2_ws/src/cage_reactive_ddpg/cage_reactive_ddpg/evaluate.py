@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
-from cage_sim.driver import Driver, Moment, decide_batch
+from cage_sim.driver import Driver, decide_batch, mission_moment
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
 from tqdm import tqdm
@@ -50,12 +50,6 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     centre = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
     return (max(0.0, centre - half), min(1.0, centre + half))
-
-
-def mission_moment(m: Mission) -> Moment:
-    """What the vehicle knows at this decision besides its observation: pose, time, the DVL's
-    body-frame velocity over ground (as vehicle_node publishes it), whether the waypoint is the goal."""
-    return Moment(m.pose, m.t, m.velocity_over_ground(), m.tracker.at_last)
 
 
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,

@@ -36,6 +36,12 @@ class Moment:
     final: bool                        # the waypoint is the mission's goal
 
 
+def mission_moment(m) -> Moment:
+    """A simulated ``cage_sim.mission.Mission``'s moment: pose, time, the DVL's body-frame velocity
+    over ground (as vehicle_node publishes it), whether the waypoint is the goal."""
+    return Moment(m.pose, m.t, m.velocity_over_ground(), m.tracker.at_last)
+
+
 class Driver:
     """One vehicle's decision maker: the policy (raw, behind the shield, or the classical baseline),
     an ``ObservationBuilder`` for the policy's layout and a ``ReturnMotion`` (state across scans).

@@ -61,23 +61,19 @@ def map_to_world(msg, safety_radius: float = 0.5) -> World:
 
 
 def scan_msg(ranges: np.ndarray, sonar: SonarModel, ns: int, frame: str = "base_link") -> LaserScan:
-    msg = LaserScan()
-    msg.header.stamp, msg.header.frame_id = time_msg(ns), frame
-    msg.angle_min = float(sonar.angle_min)
-    msg.angle_max = float(sonar.angle_max)
-    msg.angle_increment = float(sonar.angle_increment)
-    msg.time_increment = 0.0
-    msg.scan_time = 0.0
-    msg.range_min = float(sonar.min_range)
-    msg.range_max = float(sonar.max_range)
-    msg.ranges = [float(r) for r in ranges]
-    return msg
+    """A LaserScan of plain ranges taken all at once at ``ns`` (an electronic sonar; no timing)."""
+    return laserscan_msg({"angle_min": sonar.angle_min, "angle_max": sonar.angle_max,
+                          "angle_increment": sonar.angle_increment, "time_increment": 0.0, "scan_time": 0.0,
+                          "range_min": sonar.min_range, "range_max": sonar.max_range, "ranges": ranges},
+                         frame, ns)
 
 
-def laserscan_msg(fields: dict, frame: str = "base_link") -> LaserScan:
-    """A LaserScan from ``sonar.laserscan_fields`` (the profile's sector, timing, beam order)."""
+def laserscan_msg(fields: dict, frame: str = "base_link", ns: int | None = None) -> LaserScan:
+    """A LaserScan from ``sonar.laserscan_fields`` (the profile's sector, timing, beam order); the
+    stamp is ``ns`` when given, else the fields' ``stamp`` (seconds)."""
     msg = LaserScan()
-    msg.header.stamp, msg.header.frame_id = time_msg(int(round(fields["stamp"] * 1e9))), frame
+    msg.header.stamp = time_msg(ns if ns is not None else int(round(fields["stamp"] * 1e9)))
+    msg.header.frame_id = frame
     for k in ("angle_min", "angle_max", "angle_increment", "time_increment", "scan_time", "range_min", "range_max"):
         setattr(msg, k, float(fields[k]))
     msg.ranges = [float(r) for r in fields["ranges"]]

@@ -175,10 +175,9 @@ class PolicyNode(Node):
             return
         self.odoms[t_ns] = pose
         self.twists[t_ns] = (float(msg.twist.twist.linear.x), float(msg.twist.twist.linear.y))
-        while len(self.odoms) > 64:
-            self.odoms.popitem(last=False)
-        while len(self.twists) > 64:
-            self.twists.popitem(last=False)
+        for recent in (self.odoms, self.twists):     # the last 64 stamps of each
+            while len(recent) > 64:
+                recent.popitem(last=False)
         self.watch_scans_sim(t_ns, pose)
 
     def watch_scans_sim(self, t_ns: int, pose) -> None:
