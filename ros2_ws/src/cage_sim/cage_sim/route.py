@@ -70,3 +70,43 @@ class RouteTracker:
         a, b = self.prev, self.route[self.index]
         s = min(1.0, max(0.0, self._fraction(x, y)))
         return math.hypot(x - a[0] - s * (b[0] - a[0]), y - a[1] - s * (b[1] - a[1]))
+
+
+class ReplanWatch:
+    """When a vehicle following a route should ask the global planner for a new one.
+
+    Two reasons: no progress along the route for ``after`` decisions (stuck behind an unknown
+    obstacle, or orbiting), and, when ``max_offset`` > 0, farther than ``max_offset`` from the
+    current segment. Why the second: the reactive layer may leave a route that goes the long way
+    round (e.g. a planner that routed around returns seen from the start, through a gap the
+    reactive layer will not take) and head for the goal across open water; the judge calls that a
+    "wander" at ``wander_distance`` (15 m), so a new plan from where the vehicle is is asked for
+    well before. After a request the off-route reason rests for ``after`` decisions (a planner that
+    keeps failing is not asked at every decision); ``reset`` (a new route) clears both.
+    """
+
+    def __init__(self, after: int, min_progress: float, max_offset: float = 0.0):
+        self.after, self.min_progress, self.max_offset = int(after), float(min_progress), float(max_offset)
+        self.reset()
+
+    def reset(self) -> None:
+        self.best_remaining, self.since_progress, self.since_request = math.inf, 0, math.inf
+
+    def update(self, tracker: RouteTracker, x: float, y: float) -> str | None:
+        """One decision at (x, y): the reason to replan now, or None."""
+        self.since_request += 1
+        remaining = tracker.remaining(x, y)
+        if remaining < self.best_remaining - self.min_progress:
+            self.best_remaining, self.since_progress = remaining, 0
+        else:
+            self.since_progress += 1
+        if self.since_progress >= self.after:
+            return self._request(remaining, f"no progress along the route for {self.after} decisions")
+        offset = tracker.segment_offset(x, y)
+        if 0 < self.max_offset < offset and self.since_request >= self.after:
+            return self._request(remaining, f"{offset:.1f} m off the route")
+        return None
+
+    def _request(self, remaining: float, reason: str) -> str:
+        self.best_remaining, self.since_progress, self.since_request = remaining, 0, 0
+        return reason

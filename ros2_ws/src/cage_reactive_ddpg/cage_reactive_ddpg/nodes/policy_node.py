@@ -9,8 +9,9 @@ on), as it does in the evaluator by default.
 Safety: weights that do not match this build are refused at start (exit 2, naming the mismatch).
 A scan of the wrong size, or with too many invalid (NaN / negative) ranges, gets a failsafe
 setpoint (hold station) and a FAILSAFE mission event instead of a decision; scans that stop coming
-are reported the same way. With no progress along the route for ``replan_after`` decisions the node
-asks the global planner for a new plan (REPLAN_REQUESTED on ``mission_event``).
+are reported the same way. With no progress along the route for ``replan_after`` decisions, or
+farther than ``replan_offset`` from the route, the node asks the global planner for a new plan from
+where the vehicle is (REPLAN_REQUESTED on ``mission_event``; ``cage_sim.route.ReplanWatch``).
 
 Missions come from the navigator (``mission``, latched): a new id is followed from its first decision
 (the route tracker starts at the pose of that decision, as the simulator's judge does); the same id
@@ -33,7 +34,7 @@ from cage_sim.nodes.node_common import VEHICLE_PARAMETERS, check, decision_perio
 from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
 from cage_sim.recovery import joining_under_way, remaining_route
-from cage_sim.route import RouteTracker
+from cage_sim.route import ReplanWatch, RouteTracker
 from cage_sim.scan_check import ScanSpec, scan_problem
 from cage_sim.sonar import PROFILE_NAMES, scan_from_laserscan
 from cage_sim.watchdog import Silence
@@ -63,7 +64,7 @@ class PolicyNode(Node):
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
         self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
-                         replan_after=40, min_progress=2.0, waypoint_radius=EnvConfig().waypoint_radius,
+                         replan_after=40, min_progress=2.0, replan_offset=8.0, waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
         self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor=""))
         self.check_parameters()
@@ -87,7 +88,7 @@ class PolicyNode(Node):
         self.last_scan_wall: float | None = None
         self.scan_stale = False
         self.finished = False
-        self.best_remaining, self.since_progress = math.inf, 0
+        self.replan = ReplanWatch(self.p["replan_after"], self.p["min_progress"], self.p["replan_offset"])
 
         self.setpoint_pub = self.create_publisher(HeadingSetpoint, "heading_setpoint", 10)
         self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
@@ -131,6 +132,8 @@ class PolicyNode(Node):
         check("replan_after", p["replan_after"], isinstance(p["replan_after"], int) and p["replan_after"] >= 1,
               "an integer >= 1")
         check("min_progress", p["min_progress"], fin(p["min_progress"]) and p["min_progress"] >= 0, ">= 0")
+        check("replan_offset", p["replan_offset"], fin(p["replan_offset"]) and p["replan_offset"] >= 0,
+              ">= 0 m (0: never for being off the route)")
         check("waypoint_radius", p["waypoint_radius"], fin(p["waypoint_radius"]) and p["waypoint_radius"] > 0, "> 0")
         check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0,
               "> 0 s")
@@ -204,7 +207,7 @@ class PolicyNode(Node):
             return
         if msg.id != self.mission_id:
             self.missions_seen += 1
-        self.best_remaining, self.since_progress = math.inf, 0
+        self.replan.reset()
         if msg.id != self.mission_id:
             self.mission_id, self.route, self.tracker = msg.id, pts, None
             self.finished, self.last_decision = False, None
@@ -338,16 +341,10 @@ class PolicyNode(Node):
         self.event(MissionEvent.FAILSAFE, f"policy: {reason}", t_ns, pose)
 
     def watch_progress(self, t_ns: int, pose) -> None:
-        remaining = self.tracker.remaining(pose[0], pose[1])
-        if remaining < self.best_remaining - self.p["min_progress"]:
-            self.best_remaining, self.since_progress = remaining, 0
-            return
-        self.since_progress += 1
-        if self.since_progress >= self.p["replan_after"]:
-            self.since_progress = 0
-            self.best_remaining = remaining
-            self.get_logger().warning(f"no progress for {self.p['replan_after']} decisions: asking for a new plan")
-            self.event(MissionEvent.REPLAN_REQUESTED, "policy: no progress along the route", t_ns, pose)
+        reason = self.replan.update(self.tracker, pose[0], pose[1])
+        if reason is not None:
+            self.get_logger().warning(f"mission {self.mission_id}: {reason}: asking for a new plan")
+            self.event(MissionEvent.REPLAN_REQUESTED, f"policy: {reason}", t_ns, pose)
 
     def watch_scans(self) -> None:
         """Liveliness in wall time: with the clock standing (lockstep) no sim time passes, so a dead

@@ -1,0 +1,49 @@
+"""Route progress and the replan triggers policy_node acts on (pure code, no middleware)."""
+from __future__ import annotations
+
+import pytest
+
+from cage_sim.route import ReplanWatch, RouteTracker
+
+
+def tracker() -> RouteTracker:
+    return RouteTracker((0.0, 0.0), [(0.0, 30.0), (20.0, 30.0)])       # north 30 m, then east 20 m
+
+
+def test_waypoints_advance_when_reached_or_passed():
+    t = tracker()
+    assert not t.advance(0.0, 10.0) and t.index == 0
+    assert t.advance(3.0, 31.0) and t.index == 1                        # passed the first one
+    assert t.remaining(10.0, 30.0) == pytest.approx(10.0)
+    assert t.segment_offset(10.0, 34.0) == pytest.approx(4.0)
+
+
+def test_following_the_route_asks_for_nothing():
+    t, w = tracker(), ReplanWatch(after=10, min_progress=2.0, max_offset=8.0)
+    for k in range(51):                                                 # to the goal at (20, 30)
+        x, y = (0.0, float(k)) if k <= 30 else (float(k - 30), 30.0)
+        t.advance(x, y)
+        assert w.update(t, x, y) is None, k
+
+
+def test_no_progress_asks_after_n_decisions_and_again_n_later():
+    t, w = tracker(), ReplanWatch(after=5, min_progress=2.0)
+    asked = [k for k in range(20) if w.update(t, 0.5, 10.0) is not None]   # standing still
+    assert asked == [5, 10, 15]                                          # 0 counts as progress (from inf)
+
+
+def test_off_the_route_asks_once_then_rests_until_a_new_route():
+    t, w = tracker(), ReplanWatch(after=10, min_progress=2.0, max_offset=8.0)
+    reasons = []
+    for k in range(12):                                                 # heading east, away from the segment
+        x, y = float(k), float(k)
+        reasons.append(w.update(t, x, y))
+    assert [k for k, r in enumerate(reasons) if r] == [9] and "9.0 m off the route" in reasons[9]
+    assert all(w.update(t, 12.0 + k, 12.0) is None for k in range(3))   # resting: the planner was asked
+    w.reset()                                                           # a new route came (still off this one)
+    assert "off the route" in (w.update(t, 15.0, 12.0) or "")
+
+
+def test_off_route_trigger_is_off_at_zero():
+    t, w = tracker(), ReplanWatch(after=100, min_progress=2.0, max_offset=0.0)
+    assert all(w.update(t, float(k), float(k)) is None for k in range(1, 25))
