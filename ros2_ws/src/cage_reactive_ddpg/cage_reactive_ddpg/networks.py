@@ -102,10 +102,15 @@ class CriticEnsemble(nn.Module):
         h = None
         last = len(self.weights) - 1
         for i, (w, b) in enumerate(zip(self.weights, self.biases)):
-            w, b = w[:k], b[:k]
+            # one member (the study's single critic, TD3's actor loss): plain addmm, whose backward
+            # is ~6 % cheaper per update than the batched kernels' (bench_train at SB3's settings)
+            w, b = (w[0], b[0, 0]) if k == 1 else (w[:k], b[:k])
             if frozen:
                 w, b = w.detach(), b.detach()
-            h = torch.matmul(x, w) + b if h is None else torch.baddbmm(b, h, w)
+            if k == 1:
+                h = torch.addmm(b, x if h is None else h, w)
+            else:
+                h = torch.matmul(x, w) + b if h is None else torch.baddbmm(b, h, w)
             if i < last:
                 h = torch.relu(h)
-        return h.squeeze(-1)
+        return h.T if k == 1 else h.squeeze(-1)
