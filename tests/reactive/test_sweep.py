@@ -8,6 +8,7 @@ import json
 import pytest
 
 from cage_reactive_ddpg import config as config_mod
+from cage_reactive_ddpg.seeds import main as seeds_main
 from cage_reactive_ddpg.seeds import train_seeds
 from cage_reactive_ddpg.sweep import load_spec
 from cage_reactive_ddpg.sweep import main as sweep_main
@@ -34,6 +35,13 @@ def test_seeds_aggregate_mean_min_max_and_band(tmp_path, capsys):
     # different seeds really train differently (their weights are not the same file)
     w = [(tmp_path / f"seed_{k}" / "policy.safetensors").read_bytes() for k in (3, 4)]
     assert w[0] != w[1]
+    # runs trained apart aggregate the same way from the command line; a missing run is one line
+    assert seeds_main([str(tmp_path / "seed_3"), str(tmp_path / "seed_5"), "--out", str(tmp_path / "two")]) == 0
+    two = json.loads((tmp_path / "two" / "seeds.json").read_text())
+    assert two["seeds"] == [3, 5] and two["over_seeds"]["goal"]["max"] == max(goals[0], goals[2])
+    capsys.readouterr()
+    assert seeds_main([str(tmp_path / "nope"), "--out", str(tmp_path / "none")]) == 2
+    assert "nope" in capsys.readouterr().err
 
 
 def test_train_seeds_cli_refuses_used_out(tmp_path, capsys):

@@ -159,3 +159,25 @@ def plot_band(runs: list[Path], path: Path, window: int = 100) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m cage_reactive_ddpg.seeds --out DIR RUN [RUN ...]``: aggregate run folders trained
+    apart (e.g. seeds spread over machines or sessions) exactly as ``train --seeds`` does."""
+    import argparse
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("runs", nargs="+", help="run folders, each with its policy.json and episodes.csv")
+    ap.add_argument("--out", required=True, help="folder for seeds.json, seeds.md and seeds.png")
+    a = ap.parse_args(argv)
+    try:
+        out = Path(a.out)
+        out.mkdir(parents=True, exist_ok=True)
+        print(table(aggregate([Path(r) for r in a.runs], out)))
+    except (OSError, ValueError, KeyError) as err:
+        print(f"seeds: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
