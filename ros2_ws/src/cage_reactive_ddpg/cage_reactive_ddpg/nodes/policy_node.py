@@ -229,11 +229,12 @@ class PolicyNode(Node):
         self.last_scan_wall = time.monotonic()
         if self.scans_wall.heard(self.last_scan_wall):
             self.get_logger().info("the simulator's scans are back")
-        t_ns = stamp_ns(msg.header.stamp)
+        # the decision the scan is for: a mechanical head's sweep is stamped at its oldest beam, which
+        # lies before t = 0 for the sweep the head filled while the vehicle waited at the start
+        t_ns = self.decision_stamp(stamp_ns(msg.header.stamp), msg)
         if t_ns < 0:
             self.get_logger().warning("ignoring a scan with a negative stamp", throttle_duration_sec=5.0)
             return
-        t_ns = self.decision_stamp(t_ns, msg)
         self.last_scan_ns = t_ns if self.last_scan_ns is None else max(self.last_scan_ns, t_ns)
         if self.scan_stale:
             self.scan_stale = False
@@ -268,7 +269,11 @@ class PolicyNode(Node):
         if not self.sonar.mechanical or not math.isfinite(msg.time_increment) or msg.time_increment <= 0:
             return t_ns
         last = t_ns + int(round((len(msg.ranges) - 1) * msg.time_increment * 1e9))
+        # the decision at or just after the latest beam; the nearest one either side, because the
+        # stamp and time_increment round to whole ns (the first sweep's ended 1 ns after t = 0)
         boundary = -(-last // self.period_ns) * self.period_ns
+        if last - (boundary - self.period_ns) <= 1_000:
+            boundary -= self.period_ns
         return boundary if boundary - last <= int(2 * msg.time_increment * 1e9) + 1_000_000 else last
 
     # --- decision --------------------------------------------------------------------------
