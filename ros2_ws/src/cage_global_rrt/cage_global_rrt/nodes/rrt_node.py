@@ -68,6 +68,7 @@ class RrtNode(Node):
             self.create_subscription(LaserScan, "scan", self._guard(self.on_scan, report=False),
                                      qos_profile_sensor_data)
             self.layer_version = -1
+            self.last_scan_ns: int | None = None
         o = self.planner.options
         self.get_logger().info(f"rrt_node ready: {o.planner}, step {o.max_step} m, clearance {o.clearance} m, "
                                f"dubins {o.dubins}, frame {self.frame_id}")
@@ -158,6 +159,10 @@ class RrtNode(Node):
         """Feed the layer one scan from the latest pose; publish its obstacles when they change."""
         if self.layer is None or self.pose is None:
             return
+        stamp = stamp_ns(msg.header.stamp)
+        if stamp == self.last_scan_ns:
+            return   # the same scan again (republished while the vehicle waits): not new evidence
+        self.last_scan_ns = stamp
         ranges = np.asarray(msg.ranges, dtype=float)
         angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges))
         ranges[~(ranges >= msg.range_min)] = np.inf     # below range_min or NaN: no echo
