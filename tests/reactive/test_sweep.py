@@ -44,6 +44,24 @@ def test_seeds_aggregate_mean_min_max_and_band(tmp_path, capsys):
     assert "nope" in capsys.readouterr().err
 
 
+def test_seeds_reevaluated_on_the_same_fresh_missions(tmp_path, tiny_overrides):
+    """--evaluate N: every seed's final and best weights, raw and shielded, on one set of N missions."""
+    cfg = config_mod.build("study", overrides={**tiny_overrides, "scenario": "study2d", "total_steps": 300,
+                                                "prefill_steps": 100, "n_envs": 4, "eval_episodes": 10})
+    assert train_seeds(cfg, tmp_path, 2, use_ray=False, progress=False) == 0
+    runs = [str(tmp_path / f"seed_{k}") for k in (0, 1)]
+    assert seeds_main([*runs, "--out", str(tmp_path / "ev"), "--evaluate", "12", "--scenario", "study2d",
+                       "--planner", "none"]) == 0
+    for stem in ("policy_raw", "policy_shield", "best_raw", "best_shield"):
+        s = json.loads((tmp_path / "ev" / f"seeds_{stem}.json").read_text())
+        assert s["seeds"] == [0, 1] and s["episodes_per_seed"] == 12 and s["scenario"] == "study2d"
+        for p in s["per_seed"]:
+            assert sum(p["rates"].values()) == pytest.approx(1.0)
+    raw = json.loads((tmp_path / "ev" / "seeds_policy_raw.json").read_text())
+    shield = json.loads((tmp_path / "ev" / "seeds_policy_shield.json").read_text())
+    assert raw["shield"] is False and shield["shield"] is True
+
+
 def test_train_seeds_cli_refuses_used_out(tmp_path, capsys):
     (tmp_path / "x").mkdir()
     (tmp_path / "x" / "episodes.csv").write_text("episode\n")

@@ -89,21 +89,53 @@ def _final_eval(run: Path) -> dict:
 def aggregate(runs: list[Path], out: Path | None = None) -> dict[str, Any]:
     """Mean/min/max/std over seeds of each outcome rate, plus every seed's rates and intervals;
     written to ``out``/seeds.json, .md and .png when ``out`` is given."""
-    per = [_final_eval(Path(r)) for r in runs]
-    outcomes = list(per[0]["rates"])
+    summary = over_seeds([_final_eval(Path(r)) for r in runs], runs)
+    if out is not None:
+        write(summary, Path(out), "seeds")
+        plot_band([Path(r) for r in runs], Path(out) / "seeds.png")
+    return summary
+
+
+def over_seeds(per: list[dict], runs: list) -> dict[str, Any]:
+    """The summary both ``aggregate`` and ``reevaluate`` write: per-seed rows, then each outcome's
+    mean, min, max and standard deviation over the seeds."""
     over = {}
-    for o in outcomes:
+    for o in per[0]["rates"]:
         v = np.array([p["rates"][o] for p in per], dtype=float)
         over[o] = {"mean": float(v.mean()), "min": float(v.min()), "max": float(v.max()),
                    "std": float(v.std(ddof=1)) if len(v) > 1 else 0.0}
-    summary = {"seeds": [p["seed"] for p in per], "runs": [str(r) for r in runs], "per_seed": per,
-               "over_seeds": over, "episodes_per_seed": per[0]["episodes"]}
-    if out is not None:
-        out = Path(out)
-        (out / "seeds.json").write_text(json.dumps(summary, indent=2))
-        (out / "seeds.md").write_text(table(summary) + "\n")
-        plot_band([Path(r) for r in runs], out / "seeds.png")
-    return summary
+    return {"seeds": [p["seed"] for p in per], "runs": [str(r) for r in runs], "per_seed": per,
+            "over_seeds": over, "episodes_per_seed": per[0]["episodes"]}
+
+
+def write(summary: dict, out: Path, stem: str) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{stem}.json").write_text(json.dumps(summary, indent=2))
+    (out / f"{stem}.md").write_text(table(summary) + "\n")
+
+
+def reevaluate(runs: list[Path], episodes: int, seed: int, scenario: str, planner: str = "rrt",
+               weights: str = "policy", shield: bool = False) -> dict[str, Any]:
+    """Every run's policy (``weights``: ``policy`` = the final one, ``best`` = the trainer's best
+    checkpoint) on the same ``episodes`` missions drawn from ``seed``, raw or behind the shield.
+
+    Why: the trainer's own evaluation is a few hundred episodes (a 95 % interval of +-3 points at
+    93 %), too coarse to tell seeds apart, and the best checkpoint was chosen on it; fresh missions
+    from a seed never used in training give each seed a tight, unbiased figure."""
+    from .evaluate import driver_env, evaluate, load_driver
+    per = []
+    for r in runs:
+        r = Path(r)
+        driver, _, meta = load_driver(str(r / f"{weights}.safetensors"), shield=shield)
+        env = driver_env(meta, __import__("argparse").Namespace(motion=None, sensor=None))
+        summary, _, _ = evaluate(driver, scenario, episodes, seed, env.motion, planner, keep_tracks=0, env=env)
+        per.append({"seed": meta["config"]["seed"], "episodes": episodes, "rates": summary["rates"],
+                    "ci95": summary["ci95"], "weights": weights, "shield": shield})
+        print(f"[{r}] {weights}{' + shield' if shield else ''}: goal {100 * summary['rates']['goal']:.1f} %, "
+              f"collision {100 * summary['rates']['collision']:.1f} %", file=sys.stderr, flush=True)
+    s = over_seeds(per, runs)
+    s.update(scenario=scenario, eval_seed=seed, planner=planner, weights=weights, shield=shield)
+    return s
 
 
 def table(s: dict) -> str:
@@ -163,17 +195,29 @@ def plot_band(runs: list[Path], path: Path, window: int = 100) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m cage_reactive_ddpg.seeds --out DIR RUN [RUN ...]``: aggregate run folders trained
-    apart (e.g. seeds spread over machines or sessions) exactly as ``train --seeds`` does."""
+    apart (e.g. seeds spread over machines or sessions) exactly as ``train --seeds`` does. With
+    ``--evaluate N``: also run every seed's final and best policy, raw and shielded, on the same N
+    fresh missions (``--eval-seed``, ``--scenario``) into DIR/seeds_<weights>_<raw|shield>.json|md."""
     import argparse
     ap = argparse.ArgumentParser(description=main.__doc__)
     ap.add_argument("runs", nargs="+", help="run folders, each with its policy.json and episodes.csv")
     ap.add_argument("--out", required=True, help="folder for seeds.json, seeds.md and seeds.png")
+    ap.add_argument("--evaluate", type=int, default=0, metavar="N", help="fresh missions per seed and driver")
+    ap.add_argument("--eval-seed", type=int, default=2026)
+    ap.add_argument("--scenario", default="sea_dr")
+    ap.add_argument("--planner", default="rrt")
     a = ap.parse_args(argv)
     try:
-        out = Path(a.out)
+        out, runs = Path(a.out), [Path(r) for r in a.runs]
         out.mkdir(parents=True, exist_ok=True)
-        print(table(aggregate([Path(r) for r in a.runs], out)))
-    except (OSError, ValueError, KeyError) as err:
+        print(table(aggregate(runs, out)))
+        for weights in ("policy", "best") if a.evaluate else ():
+            for shield in (False, True):
+                s = reevaluate(runs, a.evaluate, a.eval_seed, a.scenario, a.planner, weights, shield)
+                write(s, out, f"seeds_{weights}_{'shield' if shield else 'raw'}")
+                print(f"\n{weights} weights{' + shield' if shield else ', raw'} on {a.evaluate} {a.scenario} "
+                      f"missions (seed {a.eval_seed}):\n{table(s)}")
+    except (OSError, ValueError, KeyError, RuntimeError) as err:
         print(f"seeds: {err}", file=sys.stderr)
         return 2
     return 0
