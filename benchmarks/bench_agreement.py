@@ -13,7 +13,9 @@ of decisions, and ends with one JSON line. Target (issue 6): rates within 2 poin
 Both sides decide through ``cage_sim.driver`` (the offline side with ``rollout.drive_episode``) with the
 policy's own sensor profile and observation. ``--noise off`` (default) switches the sonar's noise,
 dropout and clutter off on both sides: the graph scans every odometry and offline every decision, so
-their noise draws cannot be the same.
+their noise draws cannot be the same. ``--replan off`` (default) switches policy_node's replan
+requests off (no progress for ``replan_after`` decisions, ``replan_offset`` off the route): the
+offline evaluator plans once per mission, so a graph replan would be a difference by design.
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OUTCOMES = ("goal", "collision", "wander", "timeout")
+NO_REPLAN = ("--policy-param", "replan_offset:=0.0", "--policy-param", "replan_after:=1000000")
 
 
 def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sensor: str = "", shield: str = "on",
@@ -84,6 +87,7 @@ def main() -> None:
     ap.add_argument("--sensor", default="", help="sonar profile (default: the policy's; study for the baseline)")
     ap.add_argument("--shield", default="on", choices=["on", "off"], help="off: the raw learned policy")
     ap.add_argument("--noise", default="off", choices=["on", "off"], help="sonar noise/dropout/clutter (see above)")
+    ap.add_argument("--replan", default="off", choices=["on", "off"], help="policy_node's replan requests (see above)")
     args = ap.parse_args()
     seeds = list(range(args.first_seed, args.first_seed + args.missions))
     t0 = time.perf_counter()
@@ -93,7 +97,7 @@ def main() -> None:
     t0 = time.perf_counter()
     for i, s in enumerate(seeds):
         graph.append(graph_mission(args.scenario, s, args.policy, args.time_scale, args.sensor, args.shield,
-                                   args.noise))
+                                   args.noise, NO_REPLAN if args.replan == "off" else ()))
         if (i + 1) % 10 == 0 or i + 1 == len(seeds):
             same = sum(g["outcome"] == o.outcome for g, o in zip(graph, offline))
             print(f"  {i + 1}/{len(seeds)} missions, {same} same outcome, {time.perf_counter() - t0:.0f} s",

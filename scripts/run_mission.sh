@@ -14,12 +14,13 @@
 #   scripts/run_mission.sh [--scenario NAME|FILE] [--seed N] [--policy FILE|baseline] [--timeout S]
 #                          [--time-scale X] [--record DIR] [--png FILE] [--out DIR] [--ns NS]
 #                          [--goal-topic TOPIC] [--keep] [--sensor PROFILE] [--sim-param NAME:=VALUE ...]
-#                          [--rrt-param NAME:=VALUE ...]
+#                          [--rrt-param NAME:=VALUE ...] [--policy-param NAME:=VALUE ...] [--shield on|off]
 #
 # --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
 # policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
 # --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0);
 # --rrt-param passes an rrt_node parameter (--rrt-param obstacle_layer:=true, --rrt-param planner:=optimal);
+# --policy-param passes a policy_node parameter (--policy-param replan_offset:=0.0);
 # --shield off runs a learned policy raw (no safety shield).
 #
 # Isolated by ROS_DOMAIN_ID (unless set, a free one is picked: no DDS participant seen on it for
@@ -27,7 +28,7 @@
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scenario=full_cage seed=0 policy="" timeout=120 time_scale=20.0 record="" png="" out="$root/out"
-ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=() rrt_extra=() shield=""
+ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=() rrt_extra=() policy_extra=() shield=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --scenario) scenario=$2; shift 2 ;;
@@ -44,8 +45,9 @@ while [ $# -gt 0 ]; do
     --sensor) sensor=$2; shift 2 ;;
     --sim-param) sim_params+=(-p "$2"); shift 2 ;;
     --rrt-param) rrt_extra+=(-p "$2"); shift 2 ;;
+    --policy-param) policy_extra+=(-p "$2"); shift 2 ;;
     --shield) shield=$2; shift 2 ;;
-    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     *) echo "run_mission.sh: unknown argument $1" >&2; exit 64 ;;
   esac
 done
@@ -126,6 +128,7 @@ echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_
 policy_args=()
 [ -n "$policy" ] && policy_args=(-p "policy:=$policy")
 [ "$shield" = off ] && policy_args+=(-p "shield:=false")
+policy_args+=("${policy_extra[@]}")
 [ -n "$sensor" ] && policy_args+=(-p "sensor:=$sensor") && sim_params+=(-p "sensor:=$sensor")
 [ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -r "__ns:=$ns" -p "output:=$record"
 start policy_node cage_reactive_ddpg policy_node --ros-args "${shared[@]}" "${policy_args[@]}"
