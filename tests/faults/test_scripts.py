@@ -49,7 +49,9 @@ def test_timeout_k_leaves_no_node_behind(tmp_path):
         seen |= _descendants(proc.pid)
         time.sleep(0.5)
     out = proc.stdout.read()
-    assert proc.returncode in (124, 137), out
+    # 124: the script stopped within 1 s of SIGTERM; otherwise timeout's SIGKILL goes to the whole
+    # process group, timeout itself included (-9 here, 137 in a shell): seen on a loaded machine
+    assert proc.returncode in (124, 137, -9), out
     assert len(seen) >= 6, out                       # the nodes, the client and the script were running
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline and any(_alive(p) for p in seen):
