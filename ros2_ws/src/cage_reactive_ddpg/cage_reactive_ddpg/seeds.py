@@ -206,12 +206,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--eval-seed", type=int, default=2026)
     ap.add_argument("--scenario", default="sea_dr")
     ap.add_argument("--planner", default="rrt")
+    ap.add_argument("--weights", default="policy,best", help="with --evaluate: policy (final), best, or both")
     a = ap.parse_args(argv)
     try:
         out, runs = Path(a.out), [Path(r) for r in a.runs]
         out.mkdir(parents=True, exist_ok=True)
         print(table(aggregate(runs, out)))
-        for weights in ("policy", "best") if a.evaluate else ():
+        for weights in a.weights.split(",") if a.evaluate else ():
+            if weights not in ("policy", "best"):
+                raise ValueError(f"--weights: {weights!r} is neither policy nor best")
             for shield in (False, True):
                 s = reevaluate(runs, a.evaluate, a.eval_seed, a.scenario, a.planner, weights, shield)
                 write(s, out, f"seeds_{weights}_{'shield' if shield else 'raw'}")
