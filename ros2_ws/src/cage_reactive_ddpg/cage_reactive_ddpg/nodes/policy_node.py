@@ -64,7 +64,8 @@ class PolicyNode(Node):
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
         self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
-                         replan_after=40, min_progress=2.0, replan_offset=8.0, waypoint_radius=EnvConfig().waypoint_radius,
+                         replan_after=40, min_progress=2.0, replan_offset=8.0,
+                         waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
         self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor=""))
         self.check_parameters()
