@@ -31,7 +31,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OUTCOMES = ("goal", "collision", "wander", "timeout")
-NO_REPLAN = ("--policy-param", "replan_offset:=0.0", "--policy-param", "replan_after:=1000000")
 
 
 def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sensor: str = "", shield: str = "on",
@@ -97,7 +96,7 @@ def main() -> None:
     t0 = time.perf_counter()
     for i, s in enumerate(seeds):
         graph.append(graph_mission(args.scenario, s, args.policy, args.time_scale, args.sensor, args.shield,
-                                   args.noise, NO_REPLAN if args.replan == "off" else ()))
+                                   args.noise, ("--replan", args.replan)))
         if (i + 1) % 10 == 0 or i + 1 == len(seeds):
             same = sum(g["outcome"] == o.outcome for g, o in zip(graph, offline))
             print(f"  {i + 1}/{len(seeds)} missions, {same} same outcome, {time.perf_counter() - t0:.0f} s",

@@ -15,20 +15,22 @@
 #                          [--time-scale X] [--record DIR] [--png FILE] [--out DIR] [--ns NS]
 #                          [--goal-topic TOPIC] [--keep] [--sensor PROFILE] [--sim-param NAME:=VALUE ...]
 #                          [--rrt-param NAME:=VALUE ...] [--policy-param NAME:=VALUE ...] [--shield on|off]
+#                          [--replan on|off]
 #
 # --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
 # policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
 # --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0);
 # --rrt-param passes an rrt_node parameter (--rrt-param obstacle_layer:=true, --rrt-param planner:=optimal);
 # --policy-param passes a policy_node parameter (--policy-param replan_offset:=0.0);
-# --shield off runs a learned policy raw (no safety shield).
+# --shield off runs a learned policy raw (no safety shield); --replan off switches policy_node's replan
+# requests off (as the offline evaluator, which plans once per mission).
 #
 # Isolated by ROS_DOMAIN_ID (unless set, a free one is picked: no DDS participant seen on it for
 # 1 s). Node logs go to <out>/logs/.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 scenario=full_cage seed=0 policy="" timeout=120 time_scale=20.0 record="" png="" out="$root/out"
-ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=() rrt_extra=() policy_extra=() shield=""
+ns=/cage goal_topic=/goal_pose keep=0 sensor="" sim_params=() rrt_extra=() policy_extra=() shield="" replan=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --scenario) scenario=$2; shift 2 ;;
@@ -47,7 +49,8 @@ while [ $# -gt 0 ]; do
     --rrt-param) rrt_extra+=(-p "$2"); shift 2 ;;
     --policy-param) policy_extra+=(-p "$2"); shift 2 ;;
     --shield) shield=$2; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    --replan) replan=$2; shift 2 ;;
+    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
     *) echo "run_mission.sh: unknown argument $1" >&2; exit 64 ;;
   esac
 done
@@ -128,6 +131,7 @@ echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_
 policy_args=()
 [ -n "$policy" ] && policy_args=(-p "policy:=$policy")
 [ "$shield" = off ] && policy_args+=(-p "shield:=false")
+[ "$replan" = off ] && policy_args+=(-p "replan_offset:=0.0" -p "replan_after:=1000000")
 policy_args+=("${policy_extra[@]}")
 [ -n "$sensor" ] && policy_args+=(-p "sensor:=$sensor") && sim_params+=(-p "sensor:=$sensor")
 [ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -r "__ns:=$ns" -p "output:=$record"

@@ -25,7 +25,7 @@ SCRIPT = ROOT / "scripts" / "run_mission.sh"
 # depends on wall time (the new route arrives while the lockstep vehicle flies on), so the graph-vs-
 # offline comparisons switch policy_node's replan requests off (once, an off-route replan turned the
 # scanning test's collision into a goal).
-NO_REPLAN = ("--policy-param", "replan_offset:=0.0", "--policy-param", "replan_after:=1000000")
+NO_REPLAN = ("--replan", "off")
 
 
 def run_script(env, *args, timeout=240) -> tuple[int, dict | None, str]:

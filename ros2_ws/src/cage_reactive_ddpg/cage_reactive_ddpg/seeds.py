@@ -122,12 +122,13 @@ def reevaluate(runs: list[Path], episodes: int, seed: int, scenario: str, planne
     Why: the trainer's own evaluation is a few hundred episodes (a 95 % interval of +-3 points at
     93 %), too coarse to tell seeds apart, and the best checkpoint was chosen on it; fresh missions
     from a seed never used in training give each seed a tight, unbiased figure."""
-    from .evaluate import driver_env, evaluate, load_driver
+    from .evaluate import evaluate, load_driver
+    from .policy import env_config_for
     per = []
     for r in runs:
         r = Path(r)
         driver, _, meta = load_driver(str(r / f"{weights}.safetensors"), shield=shield)
-        env = driver_env(meta, __import__("argparse").Namespace(motion=None, sensor=None))
+        env = env_config_for(meta)                    # the policy's own sensor, layout and motion
         summary, _, _ = evaluate(driver, scenario, episodes, seed, env.motion, planner, keep_tracks=0, env=env)
         per.append({"seed": meta["config"]["seed"], "episodes": episodes, "rates": summary["rates"],
                     "ci95": summary["ci95"], "weights": weights, "shield": shield})
@@ -210,7 +211,6 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     try:
         out, runs = Path(a.out), [Path(r) for r in a.runs]
-        out.mkdir(parents=True, exist_ok=True)
         print(table(aggregate(runs, out)))
         for weights in a.weights.split(",") if a.evaluate else ():
             if weights not in ("policy", "best"):

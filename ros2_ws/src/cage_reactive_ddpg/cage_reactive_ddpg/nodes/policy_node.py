@@ -270,11 +270,9 @@ class PolicyNode(Node):
         if not self.sonar.mechanical or not math.isfinite(msg.time_increment) or msg.time_increment <= 0:
             return t_ns
         last = t_ns + int(round((len(msg.ranges) - 1) * msg.time_increment * 1e9))
-        # the decision at or just after the latest beam; the nearest one either side, because the
-        # stamp and time_increment round to whole ns (the first sweep's ended 1 ns after t = 0)
-        boundary = -(-last // self.period_ns) * self.period_ns
-        if last - (boundary - self.period_ns) <= 1_000:
-            boundary -= self.period_ns
+        # the decision at or just after the latest beam, within 1 us either side: the stamp and
+        # time_increment round to whole ns (the first sweep's ended 1 ns after t = 0)
+        boundary = -(-(last - 1_000) // self.period_ns) * self.period_ns
         return boundary if boundary - last <= int(2 * msg.time_increment * 1e9) + 1_000_000 else last
 
     # --- decision --------------------------------------------------------------------------
