@@ -163,3 +163,47 @@ def test_shield_lets_a_policy_fly_head_on_through_a_goal_near_the_net():
     blind = SafetyShield(Constant(0.0))                # not told: it steers away from the net near the goal
     run_one(blind, sc, perception=False)
     assert blind.interventions > 0
+
+
+# --- look-ahead that grows with the drift, and the choice when nothing is safe over it ------------
+
+def test_look_ahead_grows_with_the_drift_and_bad_horizons_are_refused():
+    import pytest
+    shield = SafetyShield(Constant(0.0))
+    assert shield.horizon_for(None) == shield.horizon_for(np.zeros(2)) == 5
+    assert shield.horizon_for(np.array([0.0, 0.25])) == 8              # 5 + ceil(10 x 0.25)
+    assert shield.horizon_for(np.array([0.3, 0.4])) == 10              # 0.5 m/s: a half turn's drift
+    assert shield.horizon_for(np.array([0.9, 0.0])) == 10              # capped at horizon_max
+    assert SafetyShield(Constant(0.0), drift_horizon=0.0).horizon_for(np.array([0.5, 0.0])) == 5
+    for bad in ({"horizon": 0}, {"horizon": 11}, {"drift_horizon": -1.0}):
+        with pytest.raises(ValueError, match="shield horizon"):
+            SafetyShield(Constant(0.0), **bad)
+
+
+def test_margins_safe_and_first_safe_agree():
+    shield = SafetyShield(Constant(0.0))
+    rng = np.random.default_rng(4)
+    firsts = shield._alternatives
+    for _ in range(5):
+        pts = rng.uniform(-8.0, 8.0, (40, 2))
+        pts = pts[np.linalg.norm(pts, axis=1) > 2.0]
+        rel = rng.normal(0.0, 0.2, pts.shape)
+        drift = rng.normal(0.0, 0.25, 2)
+        m = shield.margins(firsts, pts, rel, None, drift)
+        ok = shield.safe(firsts, pts, rel, None, drift)
+        assert np.array_equal(ok, m >= shield.min_clearance)
+        first = shield.first_safe(firsts, pts, rel, None, drift)
+        assert first == (float(firsts[ok][0]) if ok.any() else None)
+    # a longer look-ahead never finds more room: its manoeuvres extend the shorter ones
+    assert np.all(shield.margins(firsts, pts, rel, None, drift, 10) <= shield.margins(firsts, pts, rel, None, drift, 5) + 1e-12)
+
+
+def test_a_current_toward_a_wall_needs_the_longer_look_ahead():
+    """A wall 14 m ahead, a 0.5 m/s current pushing the vehicle at it and a policy that keeps
+    turning gently left. Checked 5 decisions ahead, the shield lets it fly on until no turn can beat
+    the drift (a half turn takes 9 s: 4.5 m of drift) and it hits the wall; checked over the
+    look-ahead the drift needs, it turns away in time."""
+    wall = tuple(Obstacle("square", x, 14.0, 2.0) for x in np.arange(-12.0, 13.0, 2.0))
+    sc = Scenario("drift_wall", World(30.0, (), wall, (0.0, 0.5)), (0.0, 0.0, np.pi / 2), (18.0, 6.0))
+    assert run_one(SafetyShield(Constant(0.2), drift_horizon=0.0), sc, perception=True).outcome == "collision"
+    assert run_one(SafetyShield(Constant(0.2)), sc, perception=True).outcome != "collision"
