@@ -64,3 +64,39 @@ def test_cli_bad_input_is_one_clear_line(capsys, tmp_path):
     assert "not found" in capsys.readouterr().err
     assert tr.main(["--scenario", "nope", "--steps", "10", "--out", str(tmp_path / "run"), "--quiet"]) == 2
     assert "scenario: 'nope'" in capsys.readouterr().err
+
+
+class Constant:
+    def __init__(self, a: float):
+        self.a = a
+
+    def act(self, obs):
+        return np.full((1,) if np.ndim(obs) == 1 else (len(obs), 1), self.a, dtype=np.float32)
+
+
+def test_replan_under_way_judges_the_rest_against_the_new_route():
+    """A route the long way round (north, then back south) and a vehicle that flies straight east:
+    without replans it is judged a wander 15 m off the first leg; with them, policy_node's trigger
+    (8 m off the route) plans again from where the vehicle is, and the new straight route ends at the goal."""
+    from cage_reactive_ddpg.evaluate import run_missions
+    from cage_sim.mission import EnvConfig
+    from cage_sim.scenarios import Scenario
+    from cage_sim.world import World
+    sc = Scenario("detour", World(30.0), (-20.0, 0.0, 0.0), (20.0, 0.0), ((0.0, 18.0), (20.0, 0.0)))
+    asked = []
+
+    def planner(s):
+        asked.append(s.start)
+        return [s.goal]
+
+    once = run_missions(Constant(0.0), [sc], EnvConfig())[0]
+    again = run_missions(Constant(0.0), [sc], EnvConfig(), replan=planner)[0]
+    assert once.outcome == "wander" and once.replans == 0
+    assert again.outcome == "goal" and again.replans == len(asked) == 1
+    x, y, _ = asked[0]
+    assert -20.0 < x < 0.0 and abs(y) < 1e-6            # planned from the vehicle's pose, on its line
+
+
+def test_cli_replan_needs_a_planner(capsys):
+    assert main(["--scenario", "study2d", "--episodes", "2", "--replan", "on", "--quiet"]) == 2
+    assert "--replan on: needs a planner" in capsys.readouterr().err

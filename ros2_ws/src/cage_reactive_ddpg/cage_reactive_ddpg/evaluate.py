@@ -17,18 +17,19 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
 from cage_sim.driver import Driver, decide_batch, mission_moment
+from cage_sim.route import ReplanWatch
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
 from tqdm import tqdm
 
-from .missions import PLANNERS, episode_scenarios, waypoint_fn
+from .missions import PLANNERS, WaypointFn, episode_scenarios, waypoint_fn
 
 
 @dataclass
@@ -39,6 +40,7 @@ class EpisodeResult:
     travelled: float
     route_length: float
     track: list = field(default_factory=list, repr=False)
+    replans: int = 0
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -53,17 +55,22 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
-                 keep_tracks: int = 0, progress: bool = False, perception: bool = True) -> list[EpisodeResult]:
+                 keep_tracks: int = 0, progress: bool = False, perception: bool = True,
+                 replan: WaypointFn | None = None) -> list[EpisodeResult]:
     """Run every scenario to its end; keep the tracks of the first ``keep_tracks`` episodes.
 
     ``perception``: the baseline and the shield see drift and moving returns (as in the graph);
-    off = still-water rollouts against static returns (the drift-free shield, for comparison)."""
+    off = still-water rollouts against static returns (the drift-free shield, for comparison).
+    ``replan``: plan a new route from the vehicle's pose when policy_node would ask for one
+    (``ReplanWatch`` with its default parameters: no progress for 40 decisions, or 8 m off the
+    route), in effect from the next decision; None = one plan per mission (the study's protocol)."""
     results: list[EpisodeResult] = []
     bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
     rng = np.random.default_rng(0)   # sonar noise only (off by default)
     for lo in range(0, len(scenarios), batch):
         ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception) for m in ms]
+        watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
         while live:
             obs = observe_batch(config, [ms[i] for i in live], rng)
@@ -73,14 +80,29 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
                 _, outcome = ms[i].step(float(np.clip(a, -1.0, 1.0)))
                 if outcome is None:
                     still.append(i)
+                    if watches is not None:
+                        replan_if_asked(ms[i], watches[i], replan)
                 else:
                     m, k = ms[i], lo + i
                     results.append(EpisodeResult(k, outcome, m.steps, m.travelled, m.route_length,
-                                                 list(m.track) if k < keep_tracks else []))
+                                                 list(m.track) if k < keep_tracks else [],
+                                                 m.replans))
                     bar.update(1)
             live = still
     bar.close()
     return sorted(results, key=lambda r: r.index)
+
+
+def replan_if_asked(m: Mission, watch: ReplanWatch, planner: WaypointFn) -> None:
+    """policy_node's replan, offline: when ``watch`` asks, plan from the pose the vehicle has (the
+    rrt_node plans from the latest odometry) to the goal and judge the rest against the new route.
+    A failed plan keeps the old route (the planner counts its failures)."""
+    if watch.update(m.tracker, m.x, m.y) is None:
+        return
+    wps = planner(replace(m.scenario, start=m.pose, waypoints=None))
+    if wps is not None and len(wps):
+        m.replan(wps)
+        watch.reset()
 
 
 def summarize(results: list[EpisodeResult]) -> dict:
@@ -95,6 +117,7 @@ def summarize(results: list[EpisodeResult]) -> dict:
         "mean_steps": float(np.mean([r.steps for r in results])) if n else 0.0,
         "mean_steps_goal": float(np.mean([r.steps for r in goals])) if goals else None,
         "path_ratio_goal": float(np.mean([r.travelled / r.route_length for r in goals])) if goals else None,
+        "replans": int(sum(r.replans for r in results)),
     }
 
 
@@ -166,16 +189,26 @@ def driver_env(meta: dict | None, a: argparse.Namespace) -> EnvConfig:
 
 
 def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
-             planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None):
-    """(summary dict, scenarios, results) for ``episodes`` seeded episodes."""
+             planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None,
+             replan: bool = False):
+    """(summary dict, scenarios, results) for ``episodes`` seeded episodes; ``replan``: new plans
+    under way as in the graph (``run_missions``), with the same planner."""
     routes = waypoint_fn(planner)
     scs = episode_scenarios(scenario, episodes, seed, routes)
     env = env or EnvConfig(motion=motion)
-    res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress)
+    res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress,
+                       replan=replan_planner(routes, replan))
     summary = summarize(res)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))
     return summary, scs, res
+
+
+def replan_planner(routes: WaypointFn | None, replan: bool) -> WaypointFn | None:
+    """The planner that replans under way: the mission's own (``--planner rrt``), else none."""
+    if replan and routes is None:
+        raise ValueError("--replan on: needs a planner (--planner rrt) to plan the new routes")
+    return routes if replan else None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -190,6 +223,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="route: none = straight to the goal, rrt = the global planner, dense = straight every 1 m")
     ap.add_argument("--shield", default="on", choices=["on", "off"],
                     help="run a policy behind the safety shield, as the policy node does (default on)")
+    ap.add_argument("--replan", default="off", choices=["off", "on"],
+                    help="on: ask for a new plan under way when policy_node would (40 decisions without "
+                         "progress, 8 m off the route), as the node graph does; off: one plan per mission")
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
     ap.add_argument("--quiet", action="store_true")
@@ -211,14 +247,16 @@ def main(argv: list[str] | None = None) -> int:
         env = driver_env(meta, a)
         motion = env.motion
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
-                                     keep_tracks=9 if a.plot else 0, progress=not a.quiet, env=env)
+                                     keep_tracks=9 if a.plot else 0, progress=not a.quiet, env=env,
+                                     replan=a.replan == "on")
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
-    summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner)
+    summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan)
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions)
-    print(table(f"{name} on {a.scenario} (seed {a.seed}, motion {motion}, planner {a.planner})", summary))
+    print(table(f"{name} on {a.scenario} (seed {a.seed}, motion {motion}, planner {a.planner}, replan {a.replan})",
+                summary))
     if a.json:
         Path(a.json).write_text(json.dumps(summary, indent=2))
     if a.plot:
@@ -232,8 +270,8 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str) -> list[
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
         for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                          ("motion", motion), ("sensor", sensor)):
-            if old.get(key) != mine:
+                          ("motion", motion), ("sensor", sensor), ("replan", a.replan)):
+            if old.get(key, "off") != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
         have = {r["driver"] for r in rows}
         rows += [r for r in old["rows"] if r["driver"] not in have]
@@ -259,7 +297,7 @@ def matrix_main(a: argparse.Namespace) -> int:
         motion = env.motion
         old = _reused(a, name, motion, env.sonar.profile)
         rows = mx.run_matrix(cells, {d: v for d, v in drivers.items() if d not in {r["driver"] for r in old}},
-                             a.episodes, a.seed, a.planner, env, progress=not a.quiet)
+                             a.episodes, a.seed, a.planner, env, progress=not a.quiet, replan=a.replan == "on")
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
@@ -271,14 +309,14 @@ def matrix_main(a: argparse.Namespace) -> int:
     if a.reuse:
         policy += f" (rows of {sorted({r['driver'] for r in _reused(a, name, motion, env.sonar.profile)})} from {a.reuse})"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {a.episodes} missions per cell, seed {a.seed}, "
-             f"planner {a.planner}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}")
+             f"planner {a.planner}, replan {a.replan}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}")
     md = mx.markdown(rows, title)
     print(md)
     prefix.with_suffix(".md").write_text(md)
     mx.write_csv(rows, prefix.with_suffix(".csv"))
     prefix.with_suffix(".json").write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
-         "sensor": env.sonar.profile,
+         "sensor": env.sonar.profile, "replan": a.replan,
          "policy": policy, "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)

@@ -166,14 +166,14 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 
 
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
-               env=None, progress: bool = False) -> list[dict]:
+               env=None, progress: bool = False, replan: bool = False) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver).
 
     Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
     in effect), so drivers meet identical missions and cells never share one."""
     from cage_sim.mission import EnvConfig
 
-    from .evaluate import run_missions, summarize
+    from .evaluate import replan_planner, run_missions, summarize
     env = env or EnvConfig()
     from .missions import waypoint_fn
     routes = waypoint_fn(planner)
@@ -188,10 +188,11 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
         for dname, drv in drivers.items():
-            s = summarize(run_missions(drv, scs, env, progress=progress))
+            s = summarize(run_missions(drv, scs, env, progress=progress, replan=replan_planner(routes, replan)))
             rows.append({"cell": k, "sensor": env.sonar.profile, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
-                         "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"]})
+                         "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"],
+                         "replans": s["replans"]})
             if progress:
                 print(f"cell {k} {cell.name} {dname}: " + " ".join(
                     f"{o} {100 * s['rates'][o]:.1f}%" for o in s["rates"]), flush=True)

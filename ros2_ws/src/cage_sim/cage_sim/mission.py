@@ -128,6 +128,7 @@ class Mission:
         self.outcome: str | None = None
         self.max_steps = int(math.ceil(config.max_steps_factor * self.route_length)) + config.max_steps_extra
         self.travelled = 0.0
+        self.replans = 0
         self.track = [(self.x, self.y, self.yaw)]
         self.tracker.advance(self.x, self.y)
         self.remaining = self.tracker.remaining(self.x, self.y)
@@ -184,6 +185,13 @@ class Mission:
         elif self.steps >= self.max_steps:
             self.outcome = "timeout"
         return reward, self.outcome
+
+    def replan(self, points) -> None:
+        """Follow a new route from where the vehicle is (a replan): what is left of the mission is
+        judged against it (waypoints, wander); the start, time and distance flown stay."""
+        self.tracker = RouteTracker((self.x, self.y), points, self.config.waypoint_radius)
+        self.route = self.tracker.route
+        self.replans += 1
 
     @property
     def pose(self) -> tuple[float, float, float]:

@@ -72,6 +72,11 @@ class RouteTracker:
         return math.hypot(x - a[0] - s * (b[0] - a[0]), y - a[1] - s * (b[1] - a[1]))
 
 
+# policy_node's replan parameters (replan_after, min_progress, replan_offset), also used by the offline
+# evaluator's ``--replan on`` so both ask for a new plan at the same decisions.
+REPLAN_DEFAULTS = {"replan_after": 40, "min_progress": 2.0, "replan_offset": 8.0}
+
+
 class ReplanWatch:
     """When a vehicle following a route should ask the global planner for a new one.
 
@@ -88,6 +93,12 @@ class ReplanWatch:
     def __init__(self, after: int, min_progress: float, max_offset: float = 0.0):
         self.after, self.min_progress, self.max_offset = int(after), float(min_progress), float(max_offset)
         self.reset()
+
+    @classmethod
+    def defaults(cls) -> "ReplanWatch":
+        """A watch with policy_node's default parameters (``REPLAN_DEFAULTS``)."""
+        d = REPLAN_DEFAULTS
+        return cls(d["replan_after"], d["min_progress"], d["replan_offset"])
 
     def reset(self) -> None:
         self.best_remaining, self.since_progress, self.since_request = math.inf, 0, math.inf

@@ -34,7 +34,7 @@ from cage_sim.nodes.node_common import VEHICLE_PARAMETERS, check, decision_perio
 from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
 from cage_sim.recovery import joining_under_way, remaining_route
-from cage_sim.route import ReplanWatch, RouteTracker
+from cage_sim.route import REPLAN_DEFAULTS, ReplanWatch, RouteTracker
 from cage_sim.scan_check import ScanSpec, scan_problem
 from cage_sim.sonar import PROFILE_NAMES, scan_from_laserscan
 from cage_sim.watchdog import Silence
@@ -64,7 +64,7 @@ class PolicyNode(Node):
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
         self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
-                         replan_after=40, min_progress=2.0, replan_offset=8.0,
+                         **REPLAN_DEFAULTS,
                          waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
         self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor=""))

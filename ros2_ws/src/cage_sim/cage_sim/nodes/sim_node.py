@@ -37,7 +37,6 @@ from ..mission import EnvConfig, Mission
 from .node_common import check, decision_period_ns, declare, declare_sensor, declare_vehicle
 from .node_runner import run_node
 from ..recovery import joining_under_way, remaining_route
-from ..route import RouteTracker
 from ..ros_convert import (OUTCOME_EVENTS, laserscan_msg, mission_points, odom_pose, path_msg, stamp_ns, time_msg,
                           world_to_map)
 from ..scenarios import draw_scenario
@@ -115,8 +114,7 @@ class SimNode(Node):
         m = self.mission
         if m is None or m.outcome is not None:
             return
-        m.tracker = RouteTracker((m.x, m.y), pts, self.config.waypoint_radius)
-        m.route = m.tracker.route
+        m.replan(pts)
         self.get_logger().info(f"mission {msg.id} replanned: {len(pts)} waypoints")
 
     def start_pending(self, t_ns: int, pose: tuple[float, float, float]) -> None:
