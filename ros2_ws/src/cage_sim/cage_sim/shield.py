@@ -103,8 +103,16 @@ class SafetyShield:
         mission's final waypoint) with ``drift``: nothing after passing through the goal is checked,
         since the mission ends there (a goal 2.5 m from the net is reachable head-on). ``horizon``:
         decisions checked (default ``horizon_for(drift)``)."""
+        return self.horizon_margins(firsts, returns, relative, goal, drift, horizon)[:, -1]
+
+    def horizon_margins(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None,
+                        goal: np.ndarray | None = None, drift: np.ndarray | None = None,
+                        horizon: int | None = None) -> np.ndarray:
+        """(F, h): ``margins`` of each first action for every look-ahead 1..h, from one rollout.
+        Why one is enough: the continuations of a shorter look-ahead are those of the longer one
+        cut short (hold b for j decisions, then straight, for min(j, k-1) of k-1 decisions)."""
         look = self._look(returns, relative, goal, drift, horizon)
-        return np.array([self._margin(float(a), look) for a in firsts], dtype=np.float64)
+        return np.array([self._profile(float(a), look) for a in firsts], dtype=np.float64).reshape(len(firsts), -1)
 
     def first_safe(self, candidates, returns: np.ndarray, relative: np.ndarray | None = None,
                    goal: np.ndarray | None = None, drift: np.ndarray | None = None,
@@ -126,35 +134,59 @@ class SafetyShield:
         dr = np.zeros(2) if drift is None else np.asarray(drift, dtype=np.float64)
         return self._continuations(h), np.array([0.5, 1.0]) * period, t_cont, returns, rel, goal, dr
 
-    def _margin(self, a: float, look: tuple, floor: float = -math.inf) -> float:
-        """``margins`` for one first action, exact with no ``floor``. With one, it stops early and
-        only tells which side of ``floor`` the margin lies: below it after the first decision (the
-        continuations are not rolled out), at or above it at the first continuation that clears it."""
-        conts, t_first, t_cont, returns, rel, goal, dr = look
+    def _first(self, a: float, look: tuple) -> tuple[float, bool, tuple[float, float, float]]:
+        """The first decision flown with action ``a``: (its clearance, whether it passes through
+        the goal (then nothing after it counts), its end pose)."""
+        _, t_first, _, returns, rel, goal, dr = look
         x1, y1, yaw1 = decision_step(0.0, 0.0, 0.0, a, self.fallback.vehicle)
         first0 = np.array([(0.5 * x1, 0.5 * y1), (x1, y1)])                          # chord points
         d_first = _nearest(first0[:, None] + t_first[:, None, None] * rel[None], returns)   # [2]
         if goal is not None:
-            hit_first = np.linalg.norm(first0 + t_first[:, None] * dr - goal, axis=1) < self.fallback.goal_pass
-            if hit_first.any():
-                return float(d_first[: int(np.argmax(hit_first)) + 1].min())
-        m = float(d_first.min())
-        if m < floor:
-            return m
+            hit = np.linalg.norm(first0 + t_first[:, None] * dr - goal, axis=1) < self.fallback.goal_pass
+            if hit.any():
+                return float(d_first[: int(np.argmax(hit)) + 1].min()), True, (x1, y1, yaw1)
+        return float(d_first.min()), False, (x1, y1, yaw1)
+
+    def _along(self, conts: np.ndarray, end: tuple[float, float, float], look: tuple) -> np.ndarray:
+        """[C, P] clearance at each point of the continuations ``conts`` flown from ``end`` (inf
+        after one passes through the goal)."""
+        _, _, t_cont, returns, rel, goal, dr = look
+        x1, y1, yaw1 = end
         c, s = math.cos(yaw1), math.sin(yaw1)
+        cont0 = conts @ np.array([[c, s], [-s, c]]) + (x1, y1)                          # [C, P, 2]
+        d = _nearest(cont0[:, :, None] + t_cont[None, :, None, None] * rel[None, None], returns)
+        if goal is not None:
+            hit = np.cumsum(np.linalg.norm(cont0 + t_cont[None, :, None] * dr - goal, axis=-1)
+                            < self.fallback.goal_pass, axis=1)
+            d = np.where(np.concatenate([np.zeros_like(hit[:, :1]), hit[:, :-1]], axis=1) > 0, np.inf, d)
+        return d
+
+    def _margin(self, a: float, look: tuple, floor: float = -math.inf) -> float:
+        """``margins`` for one first action, exact with no ``floor``. With one, it stops early and
+        only tells which side of ``floor`` the margin lies: below it after the first decision (the
+        continuations are not rolled out), at or above it at the first continuation that clears it."""
+        conts = look[0]
+        m, through, end = self._first(a, look)
+        if through or m < floor:
+            return m
         best = -math.inf
         for lo in range(0, len(conts), CHUNK):    # stop at the first continuation that clears ``floor``
-            cont0 = conts[lo:lo + CHUNK] @ np.array([[c, s], [-s, c]]) + (x1, y1)          # [C, P, 2]
-            d_cont = _nearest(cont0[:, :, None] + t_cont[None, :, None, None] * rel[None, None], returns)
-            if goal is not None:
-                hit = np.cumsum(np.linalg.norm(cont0 + t_cont[None, :, None] * dr - goal, axis=-1)
-                                < self.fallback.goal_pass, axis=1)
-                d_cont = np.where(np.concatenate([np.zeros_like(hit[:, :1]), hit[:, :-1]], axis=1) > 0,
-                                  np.inf, d_cont)
-            best = max(best, float(d_cont.min(axis=1, initial=np.inf).max(initial=-np.inf)))
+            d = self._along(conts[lo:lo + CHUNK], end, look)
+            best = max(best, float(d.min(axis=1, initial=np.inf).max(initial=-np.inf)))
             if best >= floor > -math.inf:
                 break
         return min(m, best)
+
+    def _profile(self, a: float, look: tuple) -> np.ndarray:
+        """[h] the margin of ``a`` for look-aheads 1..h: the running minimum along each continuation,
+        read at the end of each of its decisions, best continuation."""
+        conts = look[0]
+        m, through, end = self._first(a, look)
+        n = conts.shape[1] // 2
+        if through or n == 0:
+            return np.full(n + 1, m)
+        run = np.minimum.accumulate(self._along(conts, end, look), axis=1)[:, 1::2].max(axis=0)   # [n]
+        return np.minimum(m, np.concatenate([[m], run]))
 
     def act_one(self, obs: np.ndarray) -> float:
         dist, err = self.fallback.layout.waypoint_from(obs)
@@ -196,12 +228,12 @@ class SafetyShield:
         # down to the still-water horizon; among the actions that survive it, the one whose best
         # manoeuvre keeps farthest from the returns over the whole look-ahead (ties: the nearest the
         # policy's): the nearest barely-safe action tends to box the vehicle in a decision later.
-        margin = self.margins(nearest_first, returns, rel, goal, p.drift, h)
+        margin = self.horizon_margins(nearest_first, returns, rel, goal, p.drift, h)     # [F, h]
         for k in range(h - 1, self.horizon - 1, -1):
-            ok = self.safe(nearest_first, returns, rel, goal, p.drift, k)
+            ok = margin[:, k - 1] >= self.min_clearance
             if ok.any():
-                return float(nearest_first[ok][int(np.argmax(margin[ok]))])
-        return float(nearest_first[int(np.argmax(margin))])
+                return float(nearest_first[ok][int(np.argmax(margin[ok, -1]))])
+        return float(nearest_first[int(np.argmax(margin[:, -1]))])
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)
