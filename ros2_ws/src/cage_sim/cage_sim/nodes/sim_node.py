@@ -110,6 +110,9 @@ class SimNode(Node):
             self.get_logger().debug(f"mission {msg.id}: starts at the next decision boundary")
             if self.last_pose is not None and self.last_pose[0] % self.period_ns == 0:
                 self.start_pending(*self.last_pose)
+                # the new mission's sonar starts here, as offline: a scanning head left unprimed
+                # until the next decision would fill its first sweep there instead of stepping to it
+                self.publish_scan(*self.last_pose)
             return
         m = self.mission
         if m is None or m.outcome is not None:
