@@ -82,6 +82,21 @@ def test_sweep_file_is_checked(tmp_path):
         load_spec(f)
 
 
+def test_sweep_reference_trains_the_base_config_under_the_trial_protocol(tmp_path, capsys):
+    """``--reference``: the base config itself, same budget and held-out missions as a trial, no Ray."""
+    f = tmp_path / "tiny.yaml"
+    base = {**TINY_1D, "total_steps": 400, "eval_episodes": 10}
+    f.write_text(f"name: tiny\nbase: {json.dumps({'preset': 'study', **base})}\n"
+                 "space:\n  lr_actor: {loguniform: [1.0e-4, 1.0e-2]}\n  actor_hidden: {choice: [[16, 16], [32]]}\n"
+                 "trials: 2\nreports: 2\neval_episodes: 10\neval_seed: 99\n")
+    out = tmp_path / "out"
+    assert sweep_main(["--config", str(f), "--out", str(out), "--reference", "--quiet"]) == 0
+    ref = json.loads((out / "tiny_reference.json").read_text())
+    assert ref["lr_actor"] == 1e-3 and ref["actor_hidden"] == [16, 16]      # the base values, none sampled
+    assert len(ref["evaluations"]) == 2 and ref["env_steps"] == 400 and 0.0 <= ref["goal"] <= 1.0
+    assert "base config: goal" in capsys.readouterr().out
+
+
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None or importlib.util.find_spec("optuna") is None,
                     reason="Ray/Optuna not installed (optional extra: bash scripts/setup.sh --with-ray)")
 def test_two_trial_sweep_on_local_ray_and_resume(tmp_path, capsys):

@@ -13,6 +13,11 @@ from their last checkpoint). Writes to ``OUT/<name>/`` (Tune's own files) and to
 ``<name>_best.yaml`` (the best trial's full trainer config: ``train --config`` it), ``<name>.png``
 (objective vs trial with the running best; Optuna's parameter importance).
 
+``--reference`` trains the base config itself (none of the space's values changed) under the same
+protocol (budget, evaluations, held-out missions), here, without Ray, and writes
+``<name>_reference.json``: the figure the best trial must beat. The results table, the printed
+line and the PNG (a dashed line) include it when it is there.
+
 The sweep file (every key checked):
 
   name: fast_lr             # experiment name (folder under --out)
@@ -212,6 +217,34 @@ def run_sweep(spec: SweepSpec, out: Path, address: str | None = None, progress: 
     return tuner.fit()
 
 
+def run_reference(spec: SweepSpec, out: Path, progress: bool = True) -> dict:
+    """Train the base config under the trial protocol and write ``<name>_reference.json``."""
+    from .train import Trainer
+    cfg = trial_config(spec.base_config, {}, spec)
+    run = out / f"{spec.name}_reference"
+    if run.exists():
+        shutil.rmtree(run)
+    evals: list[dict] = []
+
+    def record(s: dict) -> None:
+        if not evals or evals[-1]["env_steps"] != tr.step:    # the final evaluation repeats the last periodic one
+            evals.append({"goal": s["rates"]["goal"], "collision": s["rates"]["collision"], "env_steps": tr.step})
+
+    tr = Trainer(cfg, run, command=f"sweep {spec.name} --reference", progress=progress, eval_seed=spec.eval_seed,
+                 on_eval=record)
+    tr.run()
+    ref = {**evals[-1], **{k: _decode(_encode(getattr(cfg, k))) for k in spec.space},
+           "evaluations": evals, "train_seconds": tr.train_seconds}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{spec.name}_reference.json").write_text(json.dumps(ref, indent=1))
+    return ref
+
+
+def load_reference(spec: SweepSpec, out: Path) -> dict | None:
+    f = out / f"{spec.name}_reference.json"
+    return json.loads(f.read_text()) if f.is_file() else None
+
+
 def _trial_number(result, default: int) -> int:
     """Tune names trial folders ``run_trial_<id>_<n>_<params>``: n (1-based) is the proposal order."""
     try:
@@ -254,7 +287,7 @@ def write_results(spec: SweepSpec, grid, out: Path) -> dict:
               f"held-out missions (eval_seed {spec.eval_seed}) after {best['env_steps']} env steps.\n"
               f"# Swept: {', '.join(spec.space)}. Train it: train --config THIS_FILE --out runs/{spec.name}_best\n")
     (out / f"{spec.name}_best.yaml").write_text(header + yaml.safe_dump(best_cfg, sort_keys=False))
-    plot(spec, rows, out / f"{spec.name}.png")
+    plot(spec, rows, out / f"{spec.name}.png", load_reference(spec, out))
     return best
 
 
@@ -281,7 +314,7 @@ def importance(spec: SweepSpec, rows: list[dict]) -> dict[str, float]:
     return dict(optuna.importance.get_param_importances(study))
 
 
-def plot(spec: SweepSpec, rows: list[dict], path: Path) -> None:
+def plot(spec: SweepSpec, rows: list[dict], path: Path, reference: dict | None = None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -295,6 +328,8 @@ def plot(spec: SweepSpec, rows: list[dict], path: Path) -> None:
     a1.scatter([xi for xi, e in zip(x, early) if e], [yi for yi, e in zip(y, early) if e], marker="x",
                label="stopped early (ASHA)", zorder=3)
     a1.plot(x, np.maximum.accumulate(y), color="k", lw=1, label="best so far")
+    if reference is not None:
+        a1.axhline(100 * reference["goal"], color="tab:red", ls="--", lw=1, label="base config (--reference)")
     a1.set_xlabel("trial")
     a1.set_ylabel(f"goal rate on {spec.eval_episodes} held-out missions (%)")
     a1.legend()
@@ -314,12 +349,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="runs/sweeps", help="folder for the experiment and its results")
     ap.add_argument("--address", default=None, help="Ray cluster address ('auto' = the running one); default: local")
     ap.add_argument("--trials", type=int, help="override the file's trial count")
+    ap.add_argument("--reference", action="store_true",
+                    help="only train the base config under the trial protocol (no Ray) and write <name>_reference.json")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     try:
         spec = load_spec(a.config)
         if a.trials is not None:
             spec.trials = a.trials
+        if a.reference:
+            ref = run_reference(spec, Path(a.out), progress=not a.quiet)
+            print(f"base config: goal {100 * ref['goal']:.1f} % collision {100 * ref['collision']:.1f} % after "
+                  f"{ref['env_steps']} env steps; wrote {a.out}/{spec.name}_reference.json")
+            return 0
         if any(importlib.util.find_spec(m) is None for m in ("ray", "optuna")):
             raise RuntimeError(INSTALL_HINT)
         out = Path(a.out)
@@ -331,6 +373,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"best trial {best['trial']}: goal {100 * best['goal']:.1f} % collision {100 * best['collision']:.1f} % "
           f"({', '.join(f'{k}={best[k]}' for k in spec.space)}); wrote {out}/{spec.name}_trials.csv, "
           f"{spec.name}_best.yaml, {spec.name}.png")
+    ref = load_reference(spec, out)
+    if ref is not None:
+        print(f"base config (--reference): goal {100 * ref['goal']:.1f} % collision {100 * ref['collision']:.1f} %")
     return 0
 
 
