@@ -13,9 +13,10 @@ of decisions, and ends with one JSON line. Target (issue 6): rates within 2 poin
 Both sides decide through ``cage_sim.driver`` (the offline side with ``rollout.drive_episode``) with the
 policy's own sensor profile and observation. ``--noise off`` (default) switches the sonar's noise,
 dropout and clutter off on both sides: the graph scans every odometry and offline every decision, so
-their noise draws cannot be the same. ``--replan off`` (default) switches policy_node's replan
-requests off (no progress for ``replan_after`` decisions, ``replan_offset`` off the route): the
-offline evaluator plans once per mission, so a graph replan would be a difference by design.
+their noise draws cannot be the same. ``--replan on`` lets policy_node ask for new plans (no progress
+for ``replan_after`` decisions, ``replan_offset`` off the route; in lockstep it holds that decision
+until the plan arrives) and the offline side replan at the same decisions (``evaluate --replan on``);
+``--replan off`` (default) switches both off: one plan per mission.
 """
 from __future__ import annotations
 
@@ -57,7 +58,7 @@ def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sens
 
 
 def offline_missions(scenario: str, seeds: list[int], policy: str, sensor: str = "", shield: str = "on",
-                     noise: str = "off") -> list:
+                     noise: str = "off", replan: str = "off") -> list:
     from dataclasses import replace
     from cage_global_rrt.routes import RoutePlanner
     from cage_reactive_ddpg.evaluate import load_driver
@@ -72,8 +73,16 @@ def offline_missions(scenario: str, seeds: list[int], policy: str, sensor: str =
     config = env_config_for(meta) if meta else EnvConfig(sonar=sensor or "study")
     if noise == "off":
         config = replace(config, sonar=make_sonar(config.sonar, noise_std=0.0, dropout=0.0, clutter=0.0))
-    env = CageNavEnv(scenario, config, waypoint_fn=RoutePlanner())
-    return [drive_episode(env, Driver(pol, config.layout, config.vehicle), seed=s) for s in seeds]
+    planner = RoutePlanner()
+    env = CageNavEnv(scenario, config, waypoint_fn=planner)
+    if replan == "off":
+        return [drive_episode(env, Driver(pol, config.layout, config.vehicle), seed=s) for s in seeds]
+    from cage_reactive_ddpg.evaluate import run_missions
+    scs = []
+    for s in seeds:                       # the env's seeded scenario with its planned route, as the graph's
+        env.reset(seed=s)
+        scs.append(env.mission.scenario)
+    return run_missions(pol, scs, config, replan=planner)
 
 
 def main() -> None:
@@ -90,7 +99,7 @@ def main() -> None:
     args = ap.parse_args()
     seeds = list(range(args.first_seed, args.first_seed + args.missions))
     t0 = time.perf_counter()
-    offline = offline_missions(args.scenario, seeds, args.policy, args.sensor, args.shield, args.noise)
+    offline = offline_missions(args.scenario, seeds, args.policy, args.sensor, args.shield, args.noise, args.replan)
     t_off = time.perf_counter() - t0
     graph = []
     t0 = time.perf_counter()

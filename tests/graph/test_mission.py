@@ -21,9 +21,8 @@ from graph_testlib import ROOT
 SCRIPT = ROOT / "scripts" / "run_mission.sh"
 
 
-# The offline reference plans once per mission; a replan in the graph takes effect at a decision that
-# depends on wall time (the new route arrives while the lockstep vehicle flies on), so the graph-vs-
-# offline comparisons switch policy_node's replan requests off.
+# ``offline`` plans once per mission, so the comparisons with it switch policy_node's replan requests
+# off; test_replanned_mission_in_the_graph_ends_as_offline compares with replans on both sides.
 NO_REPLAN = ("--replan", "off")
 
 
@@ -83,6 +82,29 @@ def test_scanning_head_mission_in_the_graph_ends_as_offline(ros_env, tmp_path):
     ep = offline(ArcController(config.layout), "cage", 1, config)
     assert result["outcome"] == ep.outcome and result["steps"] == ep.steps, log
     assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
+
+
+def test_replanned_mission_in_the_graph_ends_as_offline(ros_env, tmp_path):
+    """Replans on both sides: policy_node asks when 8 m off the route and, in lockstep, holds that
+    decision until the new plan arrives; offline (``run_missions(replan=...)``, ``evaluate --replan
+    on``) replans at the same decision. cage seed 110: one replan, goal after 45 decisions instead of
+    the 64 of one plan per mission; the graph flies the same decisions to within 1e-6 m."""
+    from cage_reactive_ddpg.evaluate import run_missions
+    from cage_reactive_ddpg.policy import env_config_for
+    rc, result, log = run_script(ros_env, "--out", str(tmp_path), "--scenario", "cage", "--seed", "110",
+                                 "--timeout", "120")
+    assert result is not None, log
+    driver, _, meta = load_driver(None)
+    config = env_config_for(meta)
+    planner = RoutePlanner()
+    env = CageNavEnv("cage", config, waypoint_fn=planner)
+    env.reset(seed=110)
+    once, again = (run_missions(driver, [env.mission.scenario], config, keep_tracks=1, replan=r)[0]
+                   for r in (None, planner))
+    assert again.replans >= 1 and again.steps != once.steps          # the replan changed the mission
+    assert "asking for a new plan" in (tmp_path / "logs" / "policy_node.log").read_text()
+    assert result["outcome"] == again.outcome and result["steps"] == again.steps, log
+    assert result["final"] == pytest.approx(again.track[-1][:2], abs=1e-6)
 
 
 def test_a_policy_of_another_profile_is_refused_by_name(ros_env, tmp_path):

@@ -63,7 +63,8 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     off = still-water rollouts against static returns (the drift-free shield, for comparison).
     ``replan``: plan a new route from the vehicle's pose when policy_node would ask for one
     (``ReplanWatch`` with its default parameters: no progress for 40 decisions, or 8 m off the
-    route), in effect from the next decision; None = one plan per mission (the study's protocol)."""
+    route), flown from the decision that asked (policy_node holds that decision until the plan
+    arrives); None = one plan per mission (the study's protocol)."""
     results: list[EpisodeResult] = []
     bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
     rng = np.random.default_rng(0)   # sonar noise only (off by default)

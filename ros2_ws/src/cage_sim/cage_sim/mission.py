@@ -190,6 +190,7 @@ class Mission:
         """Follow a new route from where the vehicle is (a replan): what is left of the mission is
         judged against it (waypoints, wander); the start, time and distance flown stay."""
         self.tracker = RouteTracker((self.x, self.y), points, self.config.waypoint_radius)
+        self.tracker.advance(self.x, self.y)   # past a first waypoint at the pose itself, as policy_node's tracker
         self.route = self.tracker.route
         self.replans += 1
 

@@ -11,7 +11,10 @@ A scan of the wrong size, or with too many invalid (NaN / negative) ranges, gets
 setpoint (hold station) and a FAILSAFE mission event instead of a decision; scans that stop coming
 are reported the same way. With no progress along the route for ``replan_after`` decisions, or
 farther than ``replan_offset`` from the route, the node asks the global planner for a new plan from
-where the vehicle is (REPLAN_REQUESTED on ``mission_event``; ``cage_sim.route.ReplanWatch``).
+where the vehicle is (REPLAN_REQUESTED on ``mission_event``; ``cage_sim.route.ReplanWatch``). In
+lockstep it holds that decision until the new plan arrives (at most ``replan_wait`` wall seconds,
+then it flies on with the old route), so the new route is flown from the decision that asked for
+it, whatever the wall time: the offline evaluator's ``--replan on`` does the same.
 
 Missions come from the navigator (``mission``, latched): a new id is followed from its first decision
 (the route tracker starts at the pose of that decision, as the simulator's judge does); the same id
@@ -64,7 +67,7 @@ class PolicyNode(Node):
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
         self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
-                         **REPLAN_DEFAULTS,
+                         **REPLAN_DEFAULTS, replan_wait=2.0,
                          waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
         self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor=""))
@@ -90,6 +93,7 @@ class PolicyNode(Node):
         self.scan_stale = False
         self.finished = False
         self.replan = ReplanWatch(self.p["replan_after"], self.p["min_progress"], self.p["replan_offset"])
+        self.held: tuple[int, tuple[float, float, float], LaserScan, float] | None = None   # decision awaiting a plan
 
         self.setpoint_pub = self.create_publisher(HeadingSetpoint, "heading_setpoint", 10)
         self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
@@ -135,6 +139,8 @@ class PolicyNode(Node):
         check("min_progress", p["min_progress"], fin(p["min_progress"]) and p["min_progress"] >= 0, ">= 0")
         check("replan_offset", p["replan_offset"], fin(p["replan_offset"]) and p["replan_offset"] >= 0,
               ">= 0 m (0: never for being off the route)")
+        check("replan_wait", p["replan_wait"], fin(p["replan_wait"]) and 0 < p["replan_wait"] <= 60,
+              "in (0, 60] wall seconds")
         check("waypoint_radius", p["waypoint_radius"], fin(p["waypoint_radius"]) and p["waypoint_radius"] > 0, "> 0")
         check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0,
               "> 0 s")
@@ -194,6 +200,12 @@ class PolicyNode(Node):
         self.failsafe(t_ns, pose, f"no scan for {(t_ns - self.last_scan_ns) / 1e9:.1f} s of sim time")
 
     def on_mission(self, msg: Mission) -> None:
+        held, self.held = self.held, None      # a new plan, a new mission or a cancel: no longer waiting
+        self.on_mission_msg(msg)
+        if held is not None and not self.finished and msg.id == self.mission_id and self.tracker is not None:
+            self.decide(*held[:3], watch=False)   # the held decision, with the new route
+
+    def on_mission_msg(self, msg: Mission) -> None:
         if msg.state == Mission.CANCELED:
             if msg.id >= self.mission_id and not self.finished:
                 self.finished = True
@@ -287,7 +299,11 @@ class PolicyNode(Node):
                                       throttle_duration_sec=5.0)
         return None
 
-    def decide(self, t_ns: int, pose: tuple[float, float, float], msg: LaserScan) -> None:
+    def decide(self, t_ns: int, pose: tuple[float, float, float], msg: LaserScan, watch: bool = True) -> None:
+        """One decision from the scan for ``t_ns`` at ``pose``. ``watch``: let the replan watch see this
+        pose first (off for a decision held for a new plan: the watch saw it when it asked)."""
+        if self.held is not None:
+            return   # waiting for the plan the held decision asked for
         x, y, yaw = pose
         ranges = np.asarray(msg.ranges, dtype=np.float64)
         problem = self.scan_problem(ranges)
@@ -307,6 +323,9 @@ class PolicyNode(Node):
             self.get_logger().info(f"mission {self.mission_id}: first decision at t={t_ns / 1e9:.1f} s, "
                                    f"route {self.tracker.length:.1f} m")
         self.tracker.advance(x, y)
+        if watch and self.watch_progress(t_ns, pose) and self.p["lockstep"]:
+            self.held = (t_ns, pose, msg, time.monotonic() + self.p["replan_wait"])
+            return
         dist, _ = self.tracker.waypoint(x, y, yaw)
         try:
             scan = scan_from_laserscan(ranges, msg.angle_min, msg.angle_increment, stamp_ns(msg.header.stamp) / 1e9,
@@ -321,7 +340,6 @@ class PolicyNode(Node):
         self.publish_setpoint(t_ns, yaw + action * self.vehicle.max_turn, self.vehicle.speed, source)
         self.get_logger().debug(f"decision {t_ns // self.period_ns}: action {action:+.3f}"
                                 f"{' (shield)' if shielded else ''}, waypoint {dist:.1f} m")
-        self.watch_progress(t_ns, pose)
 
     def dvl(self, t_ns: int) -> tuple[float, float] | None:
         """The odometry twist at ``t_ns`` as the DVL's body-frame velocity over ground; None when there
@@ -344,15 +362,23 @@ class PolicyNode(Node):
         self.publish_setpoint(t_ns, pose[2], 0.0, HeadingSetpoint.SOURCE_FAILSAFE)
         self.event(MissionEvent.FAILSAFE, f"policy: {reason}", t_ns, pose)
 
-    def watch_progress(self, t_ns: int, pose) -> None:
+    def watch_progress(self, t_ns: int, pose) -> bool:
+        """Let the replan watch see this decision's pose; True when it asked for a new plan."""
         reason = self.replan.update(self.tracker, pose[0], pose[1])
         if reason is not None:
             self.get_logger().warning(f"mission {self.mission_id}: {reason}: asking for a new plan")
             self.event(MissionEvent.REPLAN_REQUESTED, f"policy: {reason}", t_ns, pose)
+        return reason is not None
 
     def watch_scans(self) -> None:
         """Liveliness in wall time: with the clock standing (lockstep) no sim time passes, so a dead
-        simulator is only noticed this way; said once (the vehicle is not moving)."""
+        simulator is only noticed this way; said once (the vehicle is not moving). A decision held
+        for a plan that has not come within ``replan_wait`` is made with the old route."""
+        if self.held is not None and time.monotonic() > self.held[3]:
+            held, self.held = self.held, None
+            self.get_logger().warning(f"mission {self.mission_id}: no new plan within {self.p['replan_wait']:.1f} s: "
+                                      "flying on with the old route")
+            self.decide(*held[:3], watch=False)
         silent = self.scans_wall.check(time.monotonic())
         if silent is not None and not self.finished and self.tracker is not None:
             self.get_logger().warning(f"no scan for {silent:.1f} s (wall): the simulator is silent")
