@@ -121,6 +121,11 @@ def test_two_trial_sweep_on_local_ray_and_resume(tmp_path, capsys):
         assert "resuming" in capsys.readouterr().err
         with (out / "tiny_trials.csv").open() as fh:
             assert len(list(csv.DictReader(fh))) == 2
+        # --results: the table from the experiment as it stands, no trial run
+        (out / "tiny_trials.csv").unlink()
+        assert sweep_main(["--config", str(f), "--out", str(out), "--results", "--quiet"]) == 0
+        with (out / "tiny_trials.csv").open() as fh:
+            assert len(list(csv.DictReader(fh))) == 2
     finally:
         import ray
         ray.shutdown()

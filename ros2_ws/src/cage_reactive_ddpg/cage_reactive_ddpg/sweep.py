@@ -185,6 +185,17 @@ def run_trial(params: dict, base_config: dict, spec: SweepSpec) -> None:
     tr.run()
 
 
+def saved_results(spec: SweepSpec, out: Path):
+    """The ResultGrid of the experiment under ``out`` as it stands (finished and stopped trials; the
+    ones still running or pending report what they reached), without running anything."""
+    from ray import tune
+    exp = out.resolve() / spec.name
+    if not tune.Tuner.can_restore(str(exp)):
+        raise RuntimeError(f"sweep: no experiment to report in {exp}")
+    return tune.Tuner.restore(str(exp), tune.with_parameters(run_trial, base_config=spec.base_config,
+                                                              spec=spec)).get_results()
+
+
 def run_sweep(spec: SweepSpec, out: Path, address: str | None = None, progress: bool = True):
     """Run (or resume) the sweep; return Tune's ResultGrid."""
     os.environ.setdefault("TUNE_WARN_EXCESSIVE_EXPERIMENT_CHECKPOINT_SYNC_THRESHOLD_S", "0")
@@ -349,6 +360,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="runs/sweeps", help="folder for the experiment and its results")
     ap.add_argument("--address", default=None, help="Ray cluster address ('auto' = the running one); default: local")
     ap.add_argument("--trials", type=int, help="override the file's trial count")
+    ap.add_argument("--results", action="store_true",
+                    help="only write the table, best YAML and PNG from the experiment as it stands (no new trials)")
     ap.add_argument("--reference", action="store_true",
                     help="only train the base config under the trial protocol (no Ray) and write <name>_reference.json")
     ap.add_argument("--quiet", action="store_true")
@@ -365,7 +378,7 @@ def main(argv: list[str] | None = None) -> int:
         if any(importlib.util.find_spec(m) is None for m in ("ray", "optuna")):
             raise RuntimeError(INSTALL_HINT)
         out = Path(a.out)
-        grid = run_sweep(spec, out, a.address, progress=not a.quiet)
+        grid = saved_results(spec, out) if a.results else run_sweep(spec, out, a.address, progress=not a.quiet)
         best = write_results(spec, grid, out)
     except (ValueError, OSError, RuntimeError) as err:
         print(f"sweep: {err}", file=sys.stderr)
