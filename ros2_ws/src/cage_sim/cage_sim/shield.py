@@ -13,7 +13,7 @@ the overrides.
 The look-ahead is 5 decisions in still water and grows with the drift (``horizon_for``: 10 at
 0.5 m/s). Why: a current keeps pushing while the vehicle turns away (a half turn takes 9 s, 4.5 m at
 0.5 m/s), so a state that looks safe for 5 decisions can already be one no turn escapes; measured on
-the sea_small matrix this halved the shield's collisions at 0.5 m/s (1.2 -> 0.6 %). When no action
+the sea_small matrix this halved the shield's collisions at 0.5 m/s (1.2 -> 0.5 %). When no action
 is safe over the whole look-ahead, the shield takes the longest look-ahead some action survives
 and, among those actions, the one that keeps farthest from the returns over the whole of it.
 
