@@ -82,13 +82,19 @@ def test_sweep_file_is_checked(tmp_path):
         load_spec(f)
 
 
-def test_sweep_reference_trains_the_base_config_under_the_trial_protocol(tmp_path, capsys):
-    """``--reference``: the base config itself, same budget and held-out missions as a trial, no Ray."""
+def tiny_sweep_file(tmp_path, extra: str):
+    """A 2-trial sweep of the 1D case (400 steps, 2 evaluations of 10 missions) plus ``extra``."""
     f = tmp_path / "tiny.yaml"
     base = {**TINY_1D, "total_steps": 400, "eval_episodes": 10}
     f.write_text(f"name: tiny\nbase: {json.dumps({'preset': 'study', **base})}\n"
                  "space:\n  lr_actor: {loguniform: [1.0e-4, 1.0e-2]}\n  actor_hidden: {choice: [[16, 16], [32]]}\n"
-                 "trials: 2\nreports: 2\neval_episodes: 10\neval_seed: 99\n")
+                 f"trials: 2\nreports: 2\neval_episodes: 10\n{extra}\n")
+    return f
+
+
+def test_sweep_reference_trains_the_base_config_under_the_trial_protocol(tmp_path, capsys):
+    """``--reference``: the base config itself, same budget and held-out missions as a trial, no Ray."""
+    f = tiny_sweep_file(tmp_path, "eval_seed: 99")
     out = tmp_path / "out"
     assert sweep_main(["--config", str(f), "--out", str(out), "--reference", "--quiet"]) == 0
     ref = json.loads((out / "tiny_reference.json").read_text())
@@ -100,11 +106,7 @@ def test_sweep_reference_trains_the_base_config_under_the_trial_protocol(tmp_pat
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None or importlib.util.find_spec("optuna") is None,
                     reason="Ray/Optuna not installed (optional extra: bash scripts/setup.sh --with-ray)")
 def test_two_trial_sweep_on_local_ray_and_resume(tmp_path, capsys):
-    f = tmp_path / "tiny.yaml"
-    base = {**TINY_1D, "total_steps": 400, "eval_episodes": 10}
-    f.write_text(f"name: tiny\nbase: {json.dumps({'preset': 'study', **base})}\n"
-                 "space:\n  lr_actor: {loguniform: [1.0e-4, 1.0e-2]}\n  actor_hidden: {choice: [[16, 16], [32]]}\n"
-                 "trials: 2\nreports: 2\neval_episodes: 10\nconcurrent: 2\n")
+    f = tiny_sweep_file(tmp_path, "concurrent: 2")
     out = tmp_path / "out"
     try:
         assert sweep_main(["--config", str(f), "--out", str(out), "--quiet"]) == 0
