@@ -86,6 +86,12 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides={"reward.golden": 1})
     with pytest.raises(ValueError, match="batch_size: expected int"):
         config_mod.build(overrides=["batch_size=big"])
+    # YAML 1.1 reads 5e-4 (no dot) as a string, on the command line and in a file alike
+    f.write_text("lr_critic: 8e-4\n")
+    cfg = config_mod.build(file=f, overrides=["lr_actor=5e-4"])
+    assert (cfg.lr_actor, cfg.lr_critic) == (5e-4, 8e-4)
+    with pytest.raises(ValueError, match="tau: expected float, got 'fast'"):
+        config_mod.build(overrides=["tau=fast"])
 
 
 def _cli_tiny(tiny):

@@ -151,6 +151,11 @@ def _coerce(name: str, value: Any, current: Any) -> Any:
         return tuple(value)
     if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
         return float(value)
+    if isinstance(current, float) and isinstance(value, str):
+        try:            # YAML 1.1 reads 5e-4 (no dot) as a string; a float field still means 0.0005
+            return float(value)
+        except ValueError:
+            raise ValueError(f"{name}: expected float, got {value!r}") from None
     if isinstance(current, str) and not isinstance(value, str):
         return str(value)
     if current is not None and not isinstance(value, type(current)):
