@@ -146,6 +146,40 @@ def test_goal_abeam_inside_the_turning_circle_is_passed_through_not_orbited():
     assert ep.outcome == "goal" and ep.steps <= 22     # circling it at 2 m would time out
 
 
+class Pursuit:
+    """A 'policy' that turns as hard as it may at the waypoint: the learned policies' habit that
+    orbits a goal lying beside the vehicle."""
+
+    def __init__(self):
+        self.layout = ArcController().layout
+
+    def act(self, obs):
+        _, err = self.layout.waypoint_from(np.atleast_2d(obs))
+        return np.clip(err / ArcController().vehicle.max_turn, -1.0, 1.0).reshape(-1, 1)
+
+
+def test_orbits_goal_geometry():
+    from cage_sim.shield import orbits_goal
+    from cage_sim.vehicle import VehicleParams
+    v = VehicleParams()                                   # full turn: radius 2.86 m
+    assert orbits_goal(1.0, 2.0, np.pi / 2, v, 0.8)       # 2 m abeam, left turn: circles 0.86 m around it
+    assert not orbits_goal(-1.0, 2.0, np.pi / 2, v, 0.8)  # turning away from it
+    assert not orbits_goal(1.0, 5.0, np.pi / 2, v, 0.8)   # outside the circle: the turn comes round to it
+    assert not orbits_goal(1.0, 2.0, 0.0, v, 0.8)         # dead ahead: the circle passes 0.7 m from it
+    assert not orbits_goal(0.0, 2.0, np.pi / 2, v, 0.8)   # straight on never circles
+    assert orbits_goal(0.5, 4.0, np.pi / 2, v, 0.8)       # half a turn: radius 5.7 m, 4 m abeam
+
+
+def test_shield_takes_over_a_policy_that_orbits_the_goal():
+    # The goal 2 m to the left, a return in view (so not open water, where the controller flies anyway).
+    sc = Scenario("abeam", World(30.0, (), (Obstacle("circle", 3.0, -3.0, 0.5),)), (0.0, 0.0, 0.0), (0.0, 2.0))
+    assert run_one(Pursuit(), sc, perception=True).outcome == "timeout"      # it circles the goal
+    guarded, unguarded = SafetyShield(Pursuit()), SafetyShield(Pursuit(), approach=False)
+    assert run_one(unguarded, sc, perception=True).outcome == "timeout"
+    ep = run_one(guarded, sc, perception=True)
+    assert ep.outcome == "goal" and ep.steps <= 22 and 0 < guarded.approaches <= guarded.interventions
+
+
 def test_goal_near_the_net_is_reached_head_on():
     # 2.5 m from the net, approached square to the wall: passing through the goal ends the mission.
     sc = Scenario("near_net", World(30.0), (0.0, 5.0, np.pi / 2), (0.0, 27.5))

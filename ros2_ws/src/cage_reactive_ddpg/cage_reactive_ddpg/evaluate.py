@@ -133,7 +133,8 @@ def table(name: str, s: dict) -> str:
     if s.get("planner_failures"):
         lines.append(f"  planner failures (flown straight): {s['planner_failures']}")
     if "shield_decisions" in s:
-        lines.append(f"  safety shield: overrode {s['shield_interventions']} of {s['shield_decisions']} decisions")
+        lines.append(f"  safety shield: overrode {s['shield_interventions']} of {s['shield_decisions']} decisions "
+                     f"({s.get('shield_approaches', 0)} of them turning a goal orbit into an approach)")
     return "\n".join(lines)
 
 
@@ -255,7 +256,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan)
     if isinstance(driver, SafetyShield):
-        summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions)
+        summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
+                       shield_approaches=driver.approaches)
     print(table(f"{name} on {a.scenario} (seed {a.seed}, motion {motion}, planner {a.planner}, replan {a.replan})",
                 summary))
     if a.json:

@@ -17,6 +17,12 @@ the sea_small matrix this halved the shield's collisions at 0.5 m/s (1.2 -> 0.5 
 is safe over the whole look-ahead, the shield takes the longest look-ahead some action survives
 and, among those actions, the one that keeps farthest from the returns over the whole of it.
 
+Near the goal the shield also guards against orbiting (``approach``): a policy action that, held,
+circles the goal without coming within reach of it (``orbits_goal``: the goal lies inside that
+turning circle) is replaced by the classical controller's approach (fly on, then turn back through
+the goal), which is then checked like any other action. Why: the learned policies turn as hard as
+they may at a goal beside them and circled it until timeout (1-2 % of fls missions in still water).
+
 With a ``Perception`` (``decide``: drift from the DVL, returns moving with their estimated velocity,
 ``cage_sim.perception``) the manoeuvres are checked where they will really be flown: a 0.25 m/s
 current moves the vehicle 1.25 m over 5 decisions, more than the margin a still-water check
@@ -31,7 +37,7 @@ import numpy as np
 
 from .controller import ArcController, Policy, act_rows
 from .perception import Perception
-from .vehicle import decision_step
+from .vehicle import VehicleParams, decision_step
 
 CHUNK = 8   # continuations rolled out at once (the straight one first): most checks stop in the first chunk
 
@@ -46,8 +52,10 @@ class SafetyShield:
     min_clearance: float = 1.0       # m from every sonar return along the whole manoeuvre
     n_actions: int = 21              # alternative first actions tried when the policy's is unsafe
     open_water: bool = True          # with no return in reach, fly the classical controller's action
+    approach: bool = True            # a policy action that circles the goal: the controller's approach instead
     decisions: int = 0
     interventions: int = 0
+    approaches: int = 0              # decisions the goal-orbit guard took over (counted in interventions too)
 
     def __post_init__(self) -> None:
         if not (1 <= self.horizon <= self.horizon_max) or self.drift_horizon < 0:
@@ -209,6 +217,10 @@ class SafetyShield:
             b = self.fallback.decide(dist, err, p)
             self.interventions += int(abs(b - a) > 0.05)
             return b
+        if self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle, self.fallback.goal_pass):
+            a = float(self.fallback.decide(dist, err, p))   # checked below like any other action
+            self.approaches += 1
+            self.interventions += 1
         h = self.horizon_for(p.drift)
         v = self.fallback.vehicle
         drift_reach = float(np.abs(p.relative()).max(initial=0.0)) * h * v.decision_period \
@@ -237,6 +249,21 @@ class SafetyShield:
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)
+
+
+def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, reach: float) -> bool:
+    """Whether holding ``action`` circles the goal (body frame: ``dist`` m at bearing ``err``, left
+    positive) without ever coming within ``reach`` of it, in still water.
+
+    Why: the learned policies turn hard at a goal that lies beside them, and a goal inside that
+    circle is never reached (the policies orbited it until timeout). Holding ``a`` turns
+    ``a * max_turn`` per ``step_length``: a circle of radius ``step_length / (|a| max_turn)`` centred
+    abeam on the turning side; the goal is missed for good when it lies more than ``reach`` inside."""
+    if abs(action) < 0.05:
+        return False
+    r = vehicle.step_length / (abs(action) * vehicle.max_turn)
+    gx, gy = dist * math.cos(err), dist * math.sin(err)
+    return math.hypot(gx, gy - math.copysign(r, action)) < r - reach
 
 
 def _nearest(points: np.ndarray, returns: np.ndarray) -> np.ndarray:

@@ -236,7 +236,8 @@ class PolicyNode(Node):
             self.finished = True
             if isinstance(self.policy, SafetyShield):
                 self.get_logger().info(f"mission {msg.mission_id} over: the shield overrode {self.policy.interventions} "
-                                       f"of {self.policy.decisions} decisions so far")
+                                       f"of {self.policy.decisions} decisions so far ({self.policy.approaches} "
+                                       "goal-orbit take-overs)")
 
     def on_scan(self, msg: LaserScan) -> None:
         self.last_scan_wall = time.monotonic()
