@@ -94,6 +94,18 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides=["tau=fast"])
 
 
+@pytest.mark.parametrize("name", ["fast", "sea_fls", "sea_guided", "sea_guided_fls", "sea_guided_mb360",
+                                  "sea_study", "shipped", "study", "study_extra_layer", "study_low_lr"])
+def test_every_shipped_training_config_builds_and_builds_its_env(name):
+    from pathlib import Path
+    path = Path(config_mod.__file__).parents[1] / "config" / f"{name}.yaml"
+    cfg = config_mod.build(file=path)
+    env = cfg.env_config()
+    assert cfg.total_steps > 0 or cfg.episodes > 0
+    if "sensor:" in path.read_text():
+        assert env.sonar.profile == cfg.sensor
+
+
 def _cli_tiny(tiny):
     """--set flags of a tiny study2d run."""
     over = {**tiny, "scenario": "study2d", "n_envs": 4, "prefill_steps": 200, "eval_episodes": 5,
