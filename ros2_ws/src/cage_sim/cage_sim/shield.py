@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .controller import ArcController, Policy, act_rows
+from .controller import ArcController, Policy, act_rows, nearest_distance
 from .perception import Perception
 from .vehicle import VehicleParams, decision_step
 
@@ -148,7 +148,7 @@ class SafetyShield:
         _, t_first, _, returns, rel, goal, dr = look
         x1, y1, yaw1 = decision_step(0.0, 0.0, 0.0, a, self.fallback.vehicle)
         first0 = np.array([(0.5 * x1, 0.5 * y1), (x1, y1)])                          # chord points
-        d_first = _nearest(first0[:, None] + t_first[:, None, None] * rel[None], returns)   # [2]
+        d_first = nearest_distance(first0, t_first, rel, returns)   # [2]
         if goal is not None:
             hit = np.linalg.norm(first0 + t_first[:, None] * dr - goal, axis=1) < self.fallback.goal_pass
             if hit.any():
@@ -162,7 +162,7 @@ class SafetyShield:
         x1, y1, yaw1 = end
         c, s = math.cos(yaw1), math.sin(yaw1)
         cont0 = conts @ np.array([[c, s], [-s, c]]) + (x1, y1)                          # [C, P, 2]
-        d = _nearest(cont0[:, :, None] + t_cont[None, :, None, None] * rel[None, None], returns)
+        d = nearest_distance(cont0, t_cont[None, :], rel, returns)
         if goal is not None:
             hit = np.cumsum(np.linalg.norm(cont0 + t_cont[None, :, None] * dr - goal, axis=-1)
                             < self.fallback.goal_pass, axis=1)
@@ -264,12 +264,3 @@ def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, 
     r = vehicle.step_length / (abs(action) * vehicle.max_turn)
     gx, gy = dist * math.cos(err), dist * math.sin(err)
     return math.hypot(gx, gy - math.copysign(r, action)) < r - reach
-
-
-def _nearest(points: np.ndarray, returns: np.ndarray) -> np.ndarray:
-    """Distance from each point to its nearest return: ``points`` [..., K, 2] (each point as seen
-    against each of the K moving returns) -> [...]. Per coordinate, the square root after the
-    minimum (about three times faster than the norm of the whole array); inf with no return."""
-    dx = points[..., 0] - returns[:, 0]
-    dy = points[..., 1] - returns[:, 1]
-    return np.sqrt((dx * dx + dy * dy).min(axis=-1, initial=np.inf))
