@@ -22,6 +22,7 @@ circles the goal without coming within reach of it (``orbits_goal``: the goal li
 turning circle) is replaced by the classical controller's approach (fly on, then turn back through
 the goal), which is then checked like any other action. Why: the learned policies turn as hard as
 they may at a goal beside them and circled it until timeout (1-2 % of fls missions in still water).
+In a current the circle drifts on and does not orbit, so the guard stays out of it there.
 
 With a ``Perception`` (``decide``: drift from the DVL, returns moving with their estimated velocity,
 ``cage_sim.perception``) the manoeuvres are checked where they will really be flown: a 0.25 m/s
@@ -217,7 +218,8 @@ class SafetyShield:
             b = self.fallback.decide(dist, err, p)
             self.interventions += int(abs(b - a) > 0.05)
             return b
-        if self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle, self.fallback.goal_pass):
+        if self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
+                                                        self.fallback.goal_pass, p.drift):
             a = float(self.fallback.decide(dist, err, p))   # checked below like any other action
             self.approaches += 1
             self.interventions += 1
@@ -251,16 +253,23 @@ class SafetyShield:
         return act_rows(self.act_one, obs)
 
 
-def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, reach: float) -> bool:
+def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, reach: float,
+                drift: np.ndarray | None = None) -> bool:
     """Whether holding ``action`` circles the goal (body frame: ``dist`` m at bearing ``err``, left
-    positive) without ever coming within ``reach`` of it, in still water.
+    positive) without ever coming within ``reach`` of it.
 
     Why: the learned policies turn hard at a goal that lies beside them, and a goal inside that
     circle is never reached (the policies orbited it until timeout). Holding ``a`` turns
     ``a * max_turn`` per ``step_length``: a circle of radius ``step_length / (|a| max_turn)`` centred
-    abeam on the turning side; the goal is missed for good when it lies more than ``reach`` inside."""
+    abeam on the turning side; the goal is missed for good when it lies more than ``reach`` inside.
+    Only a closed circle orbits: with a ``drift`` that carries the circle ``reach`` or more per turn
+    (0.05 m/s for a full turn) the track is a trochoid that sweeps on, so this says False (taking
+    over there cost goal rate at 0.5 m/s: 99.2 -> 98.5 % in an fls cell, more timeouts)."""
     if abs(action) < 0.05:
         return False
     r = vehicle.step_length / (abs(action) * vehicle.max_turn)
+    drift_speed = 0.0 if drift is None else float(np.hypot(*np.asarray(drift, dtype=np.float64)[:2]))
+    if drift_speed * 2 * math.pi * r / vehicle.speed >= reach:
+        return False
     gx, gy = dist * math.cos(err), dist * math.sin(err)
     return math.hypot(gx, gy - math.copysign(r, action)) < r - reach
