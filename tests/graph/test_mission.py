@@ -47,20 +47,21 @@ FLS = ROOT / "ros2_ws/src/cage_reactive_ddpg/cage_reactive_ddpg/weights/policy_f
 CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varying), small obstacles
 
 
-def test_fls_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path):
-    """The v2 policy (fls scan + memory + DVL velocity) behind the shield, sim_node sensor:=fls, in a
-    current: same outcome, same decisions, final pose within 1e-6 m of the offline Driver. The sonar's
-    noise is off on both sides (the graph scans every odometry, offline every decision: the noise
-    streams cannot be the same draws)."""
+@pytest.mark.parametrize("weights, sensor", [(FLS, "fls"), (FLS.with_name("policy_mb360.safetensors"), "multibeam360")])
+def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path, weights, sensor):
+    """A v2 policy (its profile's scan + memory + DVL velocity) behind the shield, sim_node sensor:=
+    its profile, in a current: same outcome, same decisions, final pose within 1e-6 m of the offline
+    Driver. The sonar's noise is off on both sides (the graph scans every odometry, offline every
+    decision: the noise streams cannot be the same draws)."""
     from dataclasses import replace
     from cage_reactive_ddpg.policy import env_config_for
     from cage_sim.sonar import make_sonar
-    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(FLS), "--sensor", "fls",
+    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(weights), "--sensor", sensor,
                                  "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0", "--timeout", "120",
                                  "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
     assert result is not None, log
-    driver, _, meta = load_driver(str(FLS), sensor="fls")
-    config = replace(env_config_for(meta), sonar=make_sonar("fls", noise_std=0.0, dropout=0.0))
+    driver, _, meta = load_driver(str(weights), sensor=sensor)
+    config = replace(env_config_for(meta), sonar=make_sonar(sensor, noise_std=0.0, dropout=0.0))
     ep = offline(driver, CURRENT, 1, config)
     assert ep.outcome == "goal" and ep.steps > 30          # a real mission, drifting 0.25 m/s
     assert result["outcome"] == ep.outcome and result["steps"] == ep.steps, log

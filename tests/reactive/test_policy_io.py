@@ -180,14 +180,15 @@ def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_a
     assert abs(pol.act(obs)[0]) < 0.3            # the raw policy alone: within 6 deg of straight
 
 
-def test_shipped_fls_policy_is_for_the_fls_profile_only():
+@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_mb360", "multibeam360")])
+def test_shipped_profile_policy_is_for_its_profile_only(name, profile):
     from cage_reactive_ddpg.policy import env_config_for
-    path = shipped_path().with_name("policy_fls.safetensors")
-    pol = load_policy(path, profile="fls")
+    path = shipped_path().with_name(f"{name}.safetensors")
+    pol = load_policy(path, profile=profile)
     env = env_config_for(pol.metadata)
-    assert pol.profile == "fls" and env.sonar.profile == "fls" and env.layout.size == pol.layout.size
+    assert pol.profile == profile and env.sonar.profile == profile and env.layout.size == pol.layout.size
     assert pol.act(np.zeros(pol.layout.size, np.float32)).shape == (1,)
-    with pytest.raises(PolicyLoadError, match="trained for sensor profile 'fls', this sonar is profile 'study'"):
+    with pytest.raises(PolicyLoadError, match=f"trained for sensor profile '{profile}', this sonar is profile 'study'"):
         load_policy(path, profile="study")
     with pytest.raises(PolicyLoadError, match="name: file has 'cage-obs-v2', this build uses 'cage-obs-v1'"):
         load_policy(path, layout=EnvConfig().layout)          # a node building the study's observation
