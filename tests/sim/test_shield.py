@@ -179,7 +179,7 @@ def test_shield_takes_over_a_policy_that_orbits_the_goal():
     guarded, unguarded = SafetyShield(Pursuit()), SafetyShield(Pursuit(), approach=False)
     assert run_one(unguarded, sc, perception=True).outcome == "timeout"
     ep = run_one(guarded, sc, perception=True)
-    assert ep.outcome == "goal" and ep.steps <= 22 and 0 < guarded.approaches <= guarded.interventions
+    assert ep.outcome == "goal" and ep.steps <= 22 and 0 < guarded.approaches <= guarded.interventions <= guarded.decisions
 
 
 def test_goal_near_the_net_is_reached_head_on():

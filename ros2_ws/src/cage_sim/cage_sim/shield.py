@@ -218,8 +218,9 @@ class SafetyShield:
             b = self.fallback.decide(dist, err, p)
             self.interventions += int(abs(b - a) > 0.05)
             return b
-        if self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
-                                                        self.fallback.goal_pass, p.drift):
+        guarded = self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
+                                                            self.fallback.goal_pass, p.drift)
+        if guarded:
             a = float(self.fallback.decide(dist, err, p))   # checked below like any other action
             self.approaches += 1
             self.interventions += 1
@@ -233,7 +234,7 @@ class SafetyShield:
         goal = np.array([dist * math.cos(err), dist * math.sin(err)]) if p.final else None
         if len(returns) == 0 or self.safe(np.array([a]), returns, rel, goal, p.drift, h)[0]:
             return a
-        self.interventions += 1
+        self.interventions += int(not guarded)          # one override per decision, however many steps
         nearest_first = self._alternatives[np.argsort(np.abs(self._alternatives - a), kind="stable")]
         b = self.first_safe(nearest_first, returns, rel, goal, p.drift, h)
         if b is not None:
