@@ -167,7 +167,8 @@ def test_orbits_goal_geometry():
     assert not orbits_goal(1.0, 5.0, np.pi / 2, v, 0.8)   # outside the circle: the turn comes round to it
     assert not orbits_goal(1.0, 2.0, 0.0, v, 0.8)         # dead ahead: the circle passes 0.7 m from it
     assert not orbits_goal(0.0, 2.0, np.pi / 2, v, 0.8)   # straight on never circles
-    assert orbits_goal(0.5, 4.0, np.pi / 2, v, 0.8)       # half a turn: radius 5.7 m, 4 m abeam
+    assert orbits_goal(0.5, 2.0, np.pi / 2, v, 0.8)       # a gentle turn toward it: no turn that way reaches it
+    assert not orbits_goal(0.5, 6.0, np.pi / 2, v, 0.8)   # 6 m abeam, inside the half turn's 5.7 m circle: a harder turn reaches it
     assert orbits_goal(1.0, 2.0, np.pi / 2, v, 0.8, drift=np.array([0.0, 0.02]))    # 0.36 m per turn
     assert not orbits_goal(1.0, 2.0, np.pi / 2, v, 0.8, drift=np.array([0.1, 0.0]))  # 1.8 m per turn: sweeps on
 

@@ -17,9 +17,9 @@ the sea_small matrix this halved the shield's collisions at 0.5 m/s (1.2 -> 0.5 
 is safe over the whole look-ahead, the shield takes the longest look-ahead some action survives
 and, among those actions, the one that keeps farthest from the returns over the whole of it.
 
-Near the goal the shield also guards against orbiting (``approach``): a policy action that, held,
-circles the goal without coming within reach of it (``orbits_goal``: the goal lies inside that
-turning circle) is replaced by the classical controller's approach (fly on, then turn back through
+Near the goal the shield also guards against orbiting (``approach``): a policy action that turns
+toward a goal no held turn that way can reach (``orbits_goal``: the goal lies inside the full-turn
+circle on that side) is replaced by the classical controller's approach (fly on, then turn back through
 the goal), which is then checked like any other action. Why: the learned policies turn as hard as
 they may at a goal beside them and circled it until timeout (1-2 % of fls missions in still water).
 In a current the circle drifts on and does not orbit, so the guard stays out of it there.
@@ -256,19 +256,23 @@ class SafetyShield:
 
 def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, reach: float,
                 drift: np.ndarray | None = None) -> bool:
-    """Whether holding ``action`` circles the goal (body frame: ``dist`` m at bearing ``err``, left
-    positive) without ever coming within ``reach`` of it.
+    """Whether ``action`` turns toward a goal that no held turn that way can reach: the goal
+    (body frame: ``dist`` m at bearing ``err``, left positive) lies more than ``reach`` inside the
+    full-turn circle on the side ``action`` turns to.
 
-    Why: the learned policies turn hard at a goal that lies beside them, and a goal inside that
-    circle is never reached (the policies orbited it until timeout). Holding ``a`` turns
-    ``a * max_turn`` per ``step_length``: a circle of radius ``step_length / (|a| max_turn)`` centred
-    abeam on the turning side; the goal is missed for good when it lies more than ``reach`` inside.
-    Only a closed circle orbits: with a ``drift`` that carries the circle ``reach`` or more per turn
-    (0.05 m/s for a full turn) the track is a trochoid that sweeps on, so this says False (taking
-    over there cost goal rate at 0.5 m/s: 99.2 -> 98.5 % in an fls cell, more timeouts)."""
+    Why: the learned policies turn hard at a goal that lies beside them, and a goal inside the
+    tightest circle is never reached (the policies orbited it until timeout). Holding ``a`` flies a
+    circle of radius ``step_length / (|a| max_turn)`` tangent to the heading; on one side these
+    circles are nested, the full turn's (2.9 m) innermost, so a goal inside it is inside them all.
+    A goal inside a gentle turn's circle but outside the full turn's is left to the policy: turning
+    harder still reaches it. (The first version tested the policy's own circle: the same outcomes
+    on the still-water cells, but it took over five times as many decisions.)
+    Only a closed circle orbits: with a ``drift`` that carries it ``reach`` or more per turn
+    (0.05 m/s) the track is a trochoid that sweeps on, so this says False (taking over there cost
+    goal rate at 0.5 m/s: 99.2 -> 98.5 % in an fls cell, more timeouts)."""
     if abs(action) < 0.05:
         return False
-    r = vehicle.step_length / (abs(action) * vehicle.max_turn)
+    r = vehicle.step_length / vehicle.max_turn
     drift_speed = 0.0 if drift is None else float(np.hypot(*np.asarray(drift, dtype=np.float64)[:2]))
     if drift_speed * 2 * math.pi * r / vehicle.speed >= reach:
         return False
