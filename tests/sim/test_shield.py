@@ -151,21 +151,22 @@ class Pursuit:
     orbits a goal lying beside the vehicle."""
 
     def __init__(self):
-        self.layout = ArcController().layout
+        ctrl = ArcController()
+        self.layout, self.max_turn = ctrl.layout, ctrl.vehicle.max_turn
 
     def act(self, obs):
         _, err = self.layout.waypoint_from(np.atleast_2d(obs))
-        return np.clip(err / ArcController().vehicle.max_turn, -1.0, 1.0).reshape(-1, 1)
+        return np.clip(err / self.max_turn, -1.0, 1.0).reshape(-1, 1)
 
 
 def test_orbits_goal_geometry():
     from cage_sim.shield import orbits_goal
     from cage_sim.vehicle import VehicleParams
     v = VehicleParams()                                   # full turn: radius 2.86 m
-    assert orbits_goal(1.0, 2.0, np.pi / 2, v, 0.8)       # 2 m abeam, left turn: circles 0.86 m around it
+    assert orbits_goal(1.0, 2.0, np.pi / 2, v, 0.8)       # 2 m abeam, left turn: the track circles 2 m off it
     assert not orbits_goal(-1.0, 2.0, np.pi / 2, v, 0.8)  # turning away from it
     assert not orbits_goal(1.0, 5.0, np.pi / 2, v, 0.8)   # outside the circle: the turn comes round to it
-    assert not orbits_goal(1.0, 2.0, 0.0, v, 0.8)         # dead ahead: the circle passes 0.7 m from it
+    assert not orbits_goal(1.0, 2.0, 0.0, v, 0.8)         # dead ahead: the circle passes 0.6 m from it
     assert not orbits_goal(0.0, 2.0, np.pi / 2, v, 0.8)   # straight on never circles
     assert orbits_goal(0.5, 2.0, np.pi / 2, v, 0.8)       # a gentle turn toward it: no turn that way reaches it
     assert not orbits_goal(0.5, 6.0, np.pi / 2, v, 0.8)   # 6 m abeam, inside the half turn's 5.7 m circle: a harder turn reaches it

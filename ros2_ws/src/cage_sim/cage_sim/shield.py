@@ -69,8 +69,7 @@ class SafetyShield:
         """Decisions to check given the drift: a current pushes the vehicle on while it turns away
         (a half turn takes 9 s: 4.5 m at 0.5 m/s), so a state that looks safe for 5 decisions can
         already be one no manoeuvre escapes; the look-ahead grows with the drift to cover the escape."""
-        speed = 0.0 if drift is None else float(np.hypot(*np.asarray(drift, dtype=np.float64)[:2]))
-        return int(min(self.horizon_max, self.horizon + math.ceil(self.drift_horizon * speed - 1e-9)))
+        return int(min(self.horizon_max, self.horizon + math.ceil(self.drift_horizon * drift_speed(drift) - 1e-9)))
 
     def _continuations(self, horizon: int) -> np.ndarray:
         """[C, P, 2] body-frame continuations of ``horizon - 1`` decisions from the origin: straight,
@@ -254,6 +253,11 @@ class SafetyShield:
         return act_rows(self.act_one, obs)
 
 
+def drift_speed(drift: np.ndarray | None) -> float:
+    """m/s of a body-frame drift (None: still water)."""
+    return 0.0 if drift is None else float(np.hypot(*np.asarray(drift, dtype=np.float64)[:2]))
+
+
 def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, reach: float,
                 drift: np.ndarray | None = None) -> bool:
     """Whether ``action`` turns toward a goal that no held turn that way can reach: the goal
@@ -273,8 +277,7 @@ def orbits_goal(action: float, dist: float, err: float, vehicle: VehicleParams, 
     if abs(action) < 0.05:
         return False
     r = vehicle.step_length / vehicle.max_turn
-    drift_speed = 0.0 if drift is None else float(np.hypot(*np.asarray(drift, dtype=np.float64)[:2]))
-    if drift_speed * 2 * math.pi * r / vehicle.speed >= reach:
+    if drift_speed(drift) * 2 * math.pi * r / vehicle.speed >= reach:
         return False
     gx, gy = dist * math.cos(err), dist * math.sin(err)
     return math.hypot(gx, gy - math.copysign(r, action)) < r - reach
