@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from cage_sim.route import ReplanWatch, RouteTracker
+from cage_sim.route import ReplanWatch, RouteTracker, StallWatch
 
 
 def tracker() -> RouteTracker:
@@ -47,3 +47,34 @@ def test_off_the_route_asks_once_then_rests_until_a_new_route():
 def test_off_route_trigger_is_off_at_zero():
     t, w = tracker(), ReplanWatch(after=100, min_progress=2.0, max_offset=0.0)
     assert all(w.update(t, float(k), float(k)) is None for k in range(1, 25))
+
+
+def test_stall_watch_hands_over_after_no_progress_and_back_after_gain():
+    w = StallWatch(after=5, min_progress=1.0, hold=30, gain=5.0)
+    assert not any(w.update(50.0 - 1.5 * k) for k in range(20))      # 1.5 m of progress per decision
+    flags = [w.update(21.5) for _ in range(5)]                        # stuck at 21.5 m left
+    assert flags == [False] * 4 + [True]
+    assert all(w.update(r) for r in (21.0, 19.0, 17.0, 16.5))          # flown until under 16.5 m (21.5 - 5)
+    assert not w.update(15.5)                                         # 5.5 m further: the policy again
+    assert not any(w.update(15.5) for _ in range(4)) and w.update(15.5)   # a fresh count of 5
+
+
+def test_stall_watch_gives_back_after_hold_and_restarts_on_a_new_route():
+    w = StallWatch(after=3, min_progress=1.0, hold=4, gain=5.0)
+    assert [w.update(10.0) for _ in range(4)] == [False, False, False, True]
+    assert [w.update(10.0) for _ in range(4)] == [True, True, True, False]   # hold spent, no gain
+    w = StallWatch(after=3, min_progress=1.0, jump=2.0)
+    assert [w.update(10.0) for _ in range(3)] == [False, False, False]
+    assert not w.update(25.0)                         # a replan: 15 m more route, the count starts again
+    assert [w.update(25.0) for _ in range(3)] == [False, False, True]
+    assert not w.update(float("nan"))                 # no route known: never takes over
+    w = StallWatch(after=3, min_progress=1.0, hold=10, gain=5.0)
+    assert [w.update(10.0) for _ in range(4)] == [False, False, False, True]
+    assert w.update(30.0) and w.update(27.0)          # replanned while the controller flies: it goes on
+    assert not w.update(24.5)                         # 5.5 m along the new route: the policy again
+
+
+@pytest.mark.parametrize("kw", [{"after": 0}, {"hold": 0}, {"gain": 0.0}, {"min_progress": -1.0}, {"jump": 0.0}])
+def test_stall_watch_refuses_bad_parameters(kw):
+    with pytest.raises(ValueError, match="stall watch"):
+        StallWatch(**kw)

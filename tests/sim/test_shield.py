@@ -1,5 +1,6 @@
 """The safety shield: leaves safe actions alone, overrides the ones no manoeuvre can recover from."""
 import numpy as np
+import pytest
 
 from cage_sim.controller import ArcController
 from cage_sim.env import CageNavEnv
@@ -178,10 +179,22 @@ def test_shield_takes_over_a_policy_that_orbits_the_goal():
     # The goal 2 m to the left, a return in view (so not open water, where the controller flies anyway).
     sc = Scenario("abeam", World(30.0, (), (Obstacle("circle", 3.0, -3.0, 0.5),)), (0.0, 0.0, 0.0), (0.0, 2.0))
     assert run_one(Pursuit(), sc, perception=True).outcome == "timeout"      # it circles the goal
-    guarded, unguarded = SafetyShield(Pursuit()), SafetyShield(Pursuit(), approach=False)
+    guarded, unguarded = SafetyShield(Pursuit(), recover=False), SafetyShield(Pursuit(), approach=False, recover=False)
     assert run_one(unguarded, sc, perception=True).outcome == "timeout"
     ep = run_one(guarded, sc, perception=True)
     assert ep.outcome == "goal" and ep.steps <= 22 and 0 < guarded.approaches <= guarded.interventions <= guarded.decisions
+
+
+@pytest.mark.parametrize("goal", [(12.0, 0.0), (15.0, -3.0)])
+def test_shield_hands_a_policy_that_makes_no_progress_to_the_controller(goal):
+    # A policy that circles for ever, safely (a return in view, so not open water): the shield alone
+    # lets it circle; with the stall watch the controller flies once 15 decisions brought no progress.
+    sc = Scenario("circler", World(30.0, (), (Obstacle("circle", 3.0, -4.0, 0.5),)), (0.0, 0.0, 0.0), goal)
+    assert run_one(SafetyShield(Constant(1.0), recover=False), sc, perception=True).outcome == "timeout"
+    shield = SafetyShield(Constant(1.0))
+    ep = run_one(shield, sc, perception=True)
+    assert ep.outcome == "goal" and 0 < shield.recoveries <= shield.interventions < shield.decisions
+    assert shield.approaches == 0
 
 
 def test_goal_near_the_net_is_reached_head_on():

@@ -134,7 +134,8 @@ def table(name: str, s: dict) -> str:
         lines.append(f"  planner failures (flown straight): {s['planner_failures']}")
     if "shield_decisions" in s:
         lines.append(f"  safety shield: overrode {s['shield_interventions']} of {s['shield_decisions']} decisions "
-                     f"({s.get('shield_approaches', 0)} of them turning a goal orbit into an approach)")
+                     f"({s.get('shield_approaches', 0)} of them turning a goal orbit into an approach, "
+                     f"{s.get('shield_recoveries', 0)} flown by the controller for a policy making no progress)")
     return "\n".join(lines)
 
 
@@ -257,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan)
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
-                       shield_approaches=driver.approaches)
+                       shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)
     print(table(f"{name} on {a.scenario} (seed {a.seed}, motion {motion}, planner {a.planner}, replan {a.replan})",
                 summary))
     if a.json:

@@ -20,7 +20,7 @@ import numpy as np
 from .controller import ArcController, Policy
 from .observation import ObservationBuilder
 from .perception import ReturnMotion, body_drift, perceive
-from .route import RouteTracker
+from .route import RouteTracker, StallWatch
 from .shield import SafetyShield
 from .sonar import Scan
 from .vehicle import VehicleParams
@@ -34,12 +34,13 @@ class Moment:
     t: float                           # sim time, s
     v_ground: tuple[float, float] | None   # DVL: body-frame velocity over ground (None: unknown -> no drift)
     final: bool                        # the waypoint is the mission's goal
+    remaining: float | None = None     # m of route left (the stall watch); None: unknown
 
 
 def mission_moment(m) -> Moment:
     """A simulated ``cage_sim.mission.Mission``'s moment: pose, time, the DVL's body-frame velocity
-    over ground (as vehicle_node publishes it), whether the waypoint is the goal."""
-    return Moment(m.pose, m.t, m.velocity_over_ground(), m.tracker.at_last)
+    over ground (as vehicle_node publishes it), whether the waypoint is the goal, the route left."""
+    return Moment(m.pose, m.t, m.velocity_over_ground(), m.tracker.at_last, m.tracker.remaining(m.x, m.y))
 
 
 class Driver:
@@ -47,7 +48,8 @@ class Driver:
     an ``ObservationBuilder`` for the policy's layout and a ``ReturnMotion`` (state across scans).
 
     ``perception=False``: the shield and the baseline read the observation alone (static returns,
-    drift only from a v2 velocity), the drift-free reference of the evaluator."""
+    drift only from a v2 velocity), the drift-free reference of the evaluator. Behind a shield whose
+    ``recover`` is on, a ``StallWatch`` hands a policy that makes no progress to the controller."""
 
     def __init__(self, policy: Policy, layout, vehicle: VehicleParams | None = None,
                  builder: ObservationBuilder | None = None, perception: bool = True):
@@ -56,12 +58,15 @@ class Driver:
         self.vehicle = vehicle or VehicleParams()
         self.builder = builder or ObservationBuilder(layout)
         self.motion = ReturnMotion() if perception else None
+        self.stall = StallWatch() if perception else None     # used behind a shield with ``recover`` on
 
     def reset(self) -> None:
-        """A new mission: forget the memory and the previous scan's returns."""
+        """A new mission: forget the memory, the previous scan's returns and the route's progress."""
         self.builder.reset()
         if self.motion is not None:
             self.motion.reset()
+        if self.stall is not None:
+            self.stall.reset()
 
     def observe(self, scan: "Scan | np.ndarray", pose, t: float, v_ground, dist: float, err: float) -> np.ndarray:
         """The policy's observation from a scan (a ``Scan`` with beam stamps, or plain ranges of now)."""
@@ -78,7 +83,8 @@ class Driver:
         ``tracker`` already advanced to ``pose``."""
         dist, err = tracker.waypoint(*pose)
         obs = self.observe(scan, pose, t, v_ground, dist, err)
-        acts, shielded = decide_batch([self], obs[None], [Moment(tuple(pose), t, v_ground, tracker.at_last)])
+        acts, shielded = decide_batch([self], obs[None], [Moment(tuple(pose), t, v_ground, tracker.at_last,
+                                                                 tracker.remaining(*pose[:2]))])
         return float(acts[0]), bool(shielded[0])
 
 
@@ -112,6 +118,8 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
             out[j] = ctrl.decide(float(dist), float(err), p)
             continue
         before = shield.interventions
-        out[j] = shield.check(raw[j], float(dist), float(err), p)
+        stalled = shield.recover and d.stall is not None and mo.remaining is not None \
+            and d.stall.update(mo.remaining)
+        out[j] = shield.check(raw[j], float(dist), float(err), p, stalled)
         flags[j] = shield.interventions != before
     return np.clip(out, -1.0, 1.0), flags

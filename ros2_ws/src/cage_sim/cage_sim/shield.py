@@ -24,6 +24,12 @@ the goal), which is then checked like any other action. Why: the learned policie
 they may at a goal beside them and circled it until timeout (1-2 % of fls missions in still water).
 In a current the circle drifts on and does not orbit, so the guard stays out of it there.
 
+A policy that makes no progress along its route for 15 decisions (``check(..., stalled=True)``, told
+by the vehicle's ``route.StallWatch`` in ``driver``) is handed to the classical controller until the
+vehicle is 5 m further along than it ever was (or for 30 decisions); the controller's actions are
+checked like the policy's. Why: the learned policies sometimes loop, safely, among obstacles near a
+waypoint until timeout, and a new plan puts them back in the same place.
+
 With a ``Perception`` (``decide``: drift from the DVL, returns moving with their estimated velocity,
 ``cage_sim.perception``) the manoeuvres are checked where they will really be flown: a 0.25 m/s
 current moves the vehicle 1.25 m over 5 decisions, more than the margin a still-water check
@@ -54,9 +60,11 @@ class SafetyShield:
     n_actions: int = 21              # alternative first actions tried when the policy's is unsafe
     open_water: bool = True          # with no return in reach, fly the classical controller's action
     approach: bool = True            # a policy action that circles the goal: the controller's approach instead
+    recover: bool = True             # a policy that makes no progress (``StallWatch``): the controller flies
     decisions: int = 0
     interventions: int = 0
     approaches: int = 0              # decisions the goal-orbit guard took over (counted in interventions too)
+    recoveries: int = 0              # decisions flown by the controller for a stalled policy (likewise)
 
     def __post_init__(self) -> None:
         if not (1 <= self.horizon <= self.horizon_max) or self.drift_horizon < 0:
@@ -204,8 +212,10 @@ class SafetyShield:
         """The policy's action for ``obs``, or the nearest safe one given what is perceived."""
         return self.check(float(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0]), dist, err, p)
 
-    def check(self, action: float, dist: float, err: float, p: Perception) -> float:
+    def check(self, action: float, dist: float, err: float, p: Perception, stalled: bool = False) -> float:
         """``action`` (the policy's, already computed) if it is safe, else the nearest safe one.
+        ``stalled`` (the vehicle's ``StallWatch`` says so): the controller's action instead, checked
+        like the policy's.
 
         Open water (no return within the classical controller's reach, ~12 m): the controller's
         action, i.e. fly at the waypoint (crabbing against the drift) or through the goal. Nothing
@@ -217,11 +227,12 @@ class SafetyShield:
             b = self.fallback.decide(dist, err, p)
             self.interventions += int(abs(b - a) > 0.05)
             return b
-        guarded = self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
-                                                            self.fallback.goal_pass, p.drift)
+        guarded = stalled or (self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
+                                                                        self.fallback.goal_pass, p.drift))
         if guarded:
             a = float(self.fallback.decide(dist, err, p))   # checked below like any other action
-            self.approaches += 1
+            self.recoveries += int(stalled)
+            self.approaches += int(not stalled)
             self.interventions += 1
         h = self.horizon_for(p.drift)
         v = self.fallback.vehicle

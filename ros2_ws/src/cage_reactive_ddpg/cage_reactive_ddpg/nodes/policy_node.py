@@ -237,7 +237,8 @@ class PolicyNode(Node):
             if isinstance(self.policy, SafetyShield):
                 self.get_logger().info(f"mission {msg.mission_id} over: the shield overrode {self.policy.interventions} "
                                        f"of {self.policy.decisions} decisions so far ({self.policy.approaches} "
-                                       "goal-orbit take-overs)")
+                                       f"goal-orbit take-overs, {self.policy.recoveries} decisions flown by the "
+                                       "controller for a policy making no progress)")
 
     def on_scan(self, msg: LaserScan) -> None:
         self.last_scan_wall = time.monotonic()
