@@ -49,6 +49,7 @@ from sensor_msgs.msg import LaserScan
 
 from ..policy import PolicyLoadError, env_config_for, load_policy, paths, shipped_path
 
+RUNTIME = ("shield", "stall_recovery")   # the parameters ``ros2 param set`` may change while the node runs
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -66,7 +67,7 @@ class PolicyNode(Node):
     def __init__(self) -> None:
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
-        self.p = declare(self, policy="", shield=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
+        self.p = declare(self, policy="", shield=True, stall_recovery=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
                          **REPLAN_DEFAULTS, replan_wait=2.0,
                          waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
@@ -105,24 +106,31 @@ class PolicyNode(Node):
         self.add_on_set_parameters_callback(self.on_set_parameters)   # after every declare: rclpy calls it there too
 
     def on_set_parameters(self, params):
-        """``ros2 param set <ns>/policy_node shield false`` takes effect at the next decision; the other
-        parameters are read at start only, so changing them at run time is refused with the reason."""
+        """``ros2 param set <ns>/policy_node shield false`` (or ``stall_recovery``) takes effect at the
+        next decision; the other parameters are read at start only, so changing them at run time is
+        refused with the reason."""
         from rcl_interfaces.msg import SetParametersResult
         for prm in params:
-            if prm.name == "shield":
+            if prm.name in RUNTIME:
                 if not isinstance(prm.value, bool):
-                    return SetParametersResult(successful=False, reason="shield must be a bool")
+                    return SetParametersResult(successful=False, reason=f"{prm.name} must be a bool")
             elif prm.name in self.p or prm.name in VEHICLE_PARAMETERS:
                 return SetParametersResult(successful=False,
                                            reason=f"{prm.name} is read at start only: restart the node to change it")
         for prm in params:
+            if prm.name == "stall_recovery" and prm.value != self.p["stall_recovery"]:
+                self.p["stall_recovery"] = prm.value
+                if isinstance(self.policy, SafetyShield):
+                    self.policy.recover = prm.value
+                self.get_logger().info(f"stall recovery {'on' if prm.value else 'off'} from the next decision")
             if prm.name == "shield" and prm.value != self.p["shield"]:
                 self.p["shield"] = prm.value
                 if self.source == HeadingSetpoint.SOURCE_BASELINE:
                     self.get_logger().info(f"shield {prm.value}: no effect on the classical baseline")
                     continue
                 raw = self.policy.policy if isinstance(self.policy, SafetyShield) else self.policy
-                self.driver.policy = SafetyShield(raw, ArcController(self.layout, self.vehicle)) if prm.value else raw
+                self.driver.policy = SafetyShield(raw, ArcController(self.layout, self.vehicle),
+                                                  recover=self.p["stall_recovery"]) if prm.value else raw
                 self.get_logger().info(f"safety shield {'on' if prm.value else 'off'} from the next decision")
         return SetParametersResult(successful=True)
 
@@ -173,7 +181,8 @@ class PolicyNode(Node):
                                f"{pol.layout.to_dict().get('name')}; training evaluation: {rates}); "
                                f"safety shield {'on' if self.p['shield'] else 'off'}")
         if self.p["shield"]:
-            return SafetyShield(pol, ArcController(pol.layout, self.vehicle)), HeadingSetpoint.SOURCE_POLICY, env
+            return SafetyShield(pol, ArcController(pol.layout, self.vehicle), recover=self.p["stall_recovery"]), \
+                HeadingSetpoint.SOURCE_POLICY, env
         return pol, HeadingSetpoint.SOURCE_POLICY, env
 
     # --- inputs ----------------------------------------------------------------------------
