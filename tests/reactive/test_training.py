@@ -94,7 +94,7 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides=["tau=fast"])
 
 
-@pytest.mark.parametrize("name", ["fast", "sea_fls", "sea_guided", "sea_guided_fls", "sea_guided_mb360",
+@pytest.mark.parametrize("name", ["fast", "sea_fls", "sea_guided", "sea_guided_fls", "sea_guided_mb360", "sea_guided_scanning",
                                   "sea_study", "shipped", "study", "study_extra_layer", "study_low_lr"])
 def test_every_shipped_training_config_builds_and_builds_its_env(name):
     from pathlib import Path
