@@ -77,6 +77,27 @@ class RouteTracker:
 REPLAN_DEFAULTS = {"replan_after": 40, "min_progress": 2.0, "replan_offset": 8.0}
 
 
+class Progress:
+    """Decisions since the route left last shrank by ``min_progress`` m: the count both watches
+    below act on (one definition of "no progress" for the replan and the stall hand-over)."""
+
+    def __init__(self, min_progress: float):
+        self.min_progress = float(min_progress)
+        self.restart()
+
+    def restart(self, best: float = math.inf) -> None:
+        """Count from here: ``best`` the route left now (inf: the next decision is progress)."""
+        self.best, self.since = best, 0
+
+    def step(self, remaining: float) -> int:
+        """One decision with ``remaining`` m left: decisions since the last progress."""
+        if remaining < self.best - self.min_progress:
+            self.best, self.since = remaining, 0
+        else:
+            self.since += 1
+        return self.since
+
+
 class ReplanWatch:
     """When a vehicle following a route should ask the global planner for a new one.
 
@@ -101,17 +122,13 @@ class ReplanWatch:
         return cls(d["replan_after"], d["min_progress"], d["replan_offset"])
 
     def reset(self) -> None:
-        self.best_remaining, self.since_progress, self.since_request = math.inf, 0, math.inf
+        self.progress, self.since_request = Progress(self.min_progress), math.inf
 
     def update(self, tracker: RouteTracker, x: float, y: float) -> str | None:
         """One decision at (x, y): the reason to replan now, or None."""
         self.since_request += 1
         remaining = tracker.remaining(x, y)
-        if remaining < self.best_remaining - self.min_progress:
-            self.best_remaining, self.since_progress = remaining, 0
-        else:
-            self.since_progress += 1
-        if self.since_progress >= self.after:
+        if self.progress.step(remaining) >= self.after:
             return self._request(remaining, f"no progress along the route for {self.after} decisions")
         offset = tracker.segment_offset(x, y)
         if 0 < self.max_offset < offset and self.since_request >= self.after:
@@ -119,7 +136,8 @@ class ReplanWatch:
         return None
 
     def _request(self, remaining: float, reason: str) -> str:
-        self.best_remaining, self.since_progress, self.since_request = remaining, 0, 0
+        self.progress.restart(remaining)
+        self.since_request = 0
         return reason
 
 
@@ -150,27 +168,25 @@ class StallWatch:
         self.reset()
 
     def reset(self) -> None:
-        self.best, self.since, self.left, self.target, self.last = math.inf, 0, 0, -math.inf, math.inf
+        self.progress, self.left, self.target, self.last = Progress(self.min_progress), 0, -math.inf, math.inf
 
     def update(self, remaining: float) -> bool:
         """One decision with ``remaining`` m of route left: True = the controller flies it."""
         if not math.isfinite(remaining):
             return False
         if remaining > self.last + self.jump:      # a new route: progress counts from here
-            self.best, self.since = math.inf, 0
+            self.progress.restart()
             self.target = remaining - self.gain    # a controller flying goes on, on the new route
         self.last = remaining
         if self.left > 0:
             self.left -= 1
             if remaining >= self.target and self.left > 0:
                 return True
-            self.left, self.best, self.since = 0, remaining, 0     # the policy has the vehicle again
+            self.left = 0                          # the policy has the vehicle again
+            self.progress.restart(remaining)
             return False
-        if remaining < self.best - self.min_progress:
-            self.best, self.since = remaining, 0
-        else:
-            self.since += 1
-        if self.since >= self.after:
-            self.left, self.target, self.since = self.hold, min(self.best, remaining) - self.gain, 0
+        if self.progress.step(remaining) >= self.after:
+            self.left, self.target = self.hold, min(self.progress.best, remaining) - self.gain
+            self.progress.since = 0
             return True
         return False
