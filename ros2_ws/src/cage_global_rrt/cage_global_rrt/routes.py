@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .known_map import KnownMap
 from .options import NODE_PARAMETERS, PlannerOptions, options_from_parameters
 from .planner import GlobalPlanner
 
@@ -47,16 +48,19 @@ class RoutePlanner:
     """``waypoint_fn`` for cage_sim's envs: plans each scenario's route on its known map.
 
     A request that fails is counted (``failures``) and returns None, so the env falls back to the
-    straight line and the evaluator can report how often that happened.
+    straight line and the evaluator can report how often that happened. ``net_model``: the net wall
+    the routes keep off (``known_map.NET_MODELS``: the surveyed circle, or the wall the mean current
+    pushes in).
     """
 
     options: PlannerOptions = field(default_factory=node_options)
+    net_model: str = "nominal"
     failures: list[str] = field(default_factory=list)
     requests: int = 0
 
     def __call__(self, scenario) -> np.ndarray | None:
         self.requests += 1
-        planner = GlobalPlanner(scenario.world.known_map(), self.options)
+        planner = GlobalPlanner(KnownMap.from_world(scenario.world.known_map(), self.net_model), self.options)
         res = planner.plan(scenario.start, scenario.goal)
         if not res.ok:
             self.failures.append(f"{scenario.name}: {res.status.name}: {res.message}")

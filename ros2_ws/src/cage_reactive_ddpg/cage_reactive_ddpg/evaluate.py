@@ -223,7 +223,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--motion", default=None, choices=["continuous", "study"],
                     help="vehicle step (default: the policy's training motion; continuous for the baseline)")
     ap.add_argument("--planner", default="none", choices=list(PLANNERS),
-                    help="route: none = straight to the goal, rrt = the global planner, dense = straight every 1 m")
+                    help="route: none = straight to the goal, rrt = the global planner, rrt_current = it on the net "
+                         "wall the mean current pushes in, dense = straight every 1 m")
     ap.add_argument("--shield", default="on", choices=["on", "off"],
                     help="run a policy behind the safety shield, as the policy node does (default on)")
     ap.add_argument("--replan", default="off", choices=["off", "on"],

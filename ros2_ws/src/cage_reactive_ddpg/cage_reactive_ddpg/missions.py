@@ -49,7 +49,7 @@ def sampler(spec: str) -> Sampler:
     return draw
 
 
-PLANNERS = ("none", "rrt", "dense", "dense_mix")
+PLANNERS = ("none", "rrt", "rrt_current", "dense", "dense_mix")
 
 
 def dense_route(sc: Scenario, spacing: float = 1.0) -> list[tuple[float, float]]:
@@ -69,6 +69,7 @@ def waypoint_fn(planner: str) -> WaypointFn | None:
     """Routes for missions without their own waypoints.
 
     ``none``: straight to the goal; ``rrt``: the global planner over the known map (``cage_global_rrt``);
+    ``rrt_current``: the same, keeping off the net wall the mean current is predicted to push in;
     ``dense``: straight, waypoints every metre; ``dense_mix``: half ``dense``, half ``none`` (training).
     """
     if planner == "none":
@@ -77,14 +78,14 @@ def waypoint_fn(planner: str) -> WaypointFn | None:
         return dense_route
     if planner == "dense_mix":
         return _dense_mix
-    if planner != "rrt":
+    if planner not in ("rrt", "rrt_current"):
         raise ValueError(f"planner: expected one of {PLANNERS}, got {planner!r}")
     try:
         from cage_global_rrt.routes import RoutePlanner
     except ImportError as err:
         raise RuntimeError(f"planner rrt: cage_global_rrt is not installed ({err})") from None
     # The rrt_node's own options (its config/rrt.yaml), so offline routes are the graph's routes.
-    return RoutePlanner()
+    return RoutePlanner(net_model="current" if planner == "rrt_current" else "nominal")
 
 
 def episode_scenarios(spec: str, n: int, seed: int, wp_fn: WaypointFn | None = None,
