@@ -22,8 +22,8 @@ from cage_sim.net import NetShape
 from cage_sim.world import Obstacle, World
 
 NET_MODELS = ("nominal", "current")
-WALL_DISC = 20.0    # m, radius of the discs standing for the pushed-in wall (2 m apart: < 3 cm scallops)
-WALL_STEP = 2.0     # m between their tangent points along the wall
+WALL_DISC = 20.0    # m, radius of the discs standing for the pushed-in wall
+WALL_STEP = 2.0     # m between tangent points where the wall is pushed in most (wider where less)
 WALL_MIN_PUSH = 0.25  # m: where the wall is within this of the circle, the circle stands for it
 
 
@@ -72,9 +72,10 @@ class KnownMap:
 
 def wall_discs(net: NetShape) -> list[tuple[float, float, float]]:
     """(cx, cy, radius) discs of radius ``WALL_DISC`` touching the deformed wall from outside every
-    ``WALL_STEP`` m where it lies more than ``WALL_MIN_PUSH`` inside the nominal circle (none for the
-    circle). A disc tangent to a convex wall lies outside it; between two tangent points the free
-    space bulges out by at most ~step^2 / (8 radius), 2.5 cm."""
+    ``WALL_STEP`` m of the innermost wall (equal angles: ~4 m apart where the wall is near the circle)
+    where it lies more than ``WALL_MIN_PUSH`` inside the nominal circle (none for the circle). A disc
+    tangent to a convex wall lies outside it; between two tangent points s apart the free space
+    bulges out by about s^2 / (8 radius): 2.5 cm at 2 m, 10 cm at 4 m."""
     if not net.deformed:
         return []
     n = max(8, int(math.ceil(2 * math.pi * net.min_radius / WALL_STEP)))
