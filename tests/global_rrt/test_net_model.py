@@ -30,9 +30,9 @@ def test_discs_stay_outside_the_wall_and_cover_the_pushed_in_part():
     assert gap.min() > 0.0
     # the crescent between the real wall and the circle is covered (a point 0.3 m outside the wall
     # where it is pushed in more than 1 m lies in some disc)
-    outer = [(t, net.inward(t, -0.3)) for t in th if net.radius - float(net.r(t)) > 1.0]
+    outer = [net.inward(t, -0.3) for t in th if net.radius - float(net.r(t)) > 1.0]
     assert outer
-    for _, (x, y) in outer:
+    for x, y in outer:
         assert np.min(np.hypot(x - discs[:, 0], y - discs[:, 1]) - discs[:, 2]) < 0.0
 
 

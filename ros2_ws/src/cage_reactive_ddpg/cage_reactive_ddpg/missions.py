@@ -49,7 +49,8 @@ def sampler(spec: str) -> Sampler:
     return draw
 
 
-PLANNERS = ("none", "rrt", "rrt_current", "dense", "dense_mix")
+RRT_NET_MODELS = {"rrt": "nominal", "rrt_current": "current"}   # planner name -> the net wall it plans on
+PLANNERS = ("none", *RRT_NET_MODELS, "dense", "dense_mix")
 
 
 def dense_route(sc: Scenario, spacing: float = 1.0) -> list[tuple[float, float]]:
@@ -78,14 +79,14 @@ def waypoint_fn(planner: str) -> WaypointFn | None:
         return dense_route
     if planner == "dense_mix":
         return _dense_mix
-    if planner not in ("rrt", "rrt_current"):
+    if planner not in RRT_NET_MODELS:
         raise ValueError(f"planner: expected one of {PLANNERS}, got {planner!r}")
     try:
         from cage_global_rrt.routes import RoutePlanner
     except ImportError as err:
         raise RuntimeError(f"planner rrt: cage_global_rrt is not installed ({err})") from None
     # The rrt_node's own options (its config/rrt.yaml), so offline routes are the graph's routes.
-    return RoutePlanner(net_model="current" if planner == "rrt_current" else "nominal")
+    return RoutePlanner(net_model=RRT_NET_MODELS[planner])
 
 
 def episode_scenarios(spec: str, n: int, seed: int, wp_fn: WaypointFn | None = None,

@@ -187,6 +187,6 @@ class StallWatch:
             return False
         if self.progress.step(remaining) >= self.after:
             self.left, self.target = self.hold, min(self.progress.best, remaining) - self.gain
-            self.progress.since = 0
+            self.progress.restart(self.progress.best)    # the count starts again after the hand-back
             return True
         return False
