@@ -1,19 +1,12 @@
 """rrt_node with the obstacle layer, over real DDS between real processes: scans + odometry make a
 marker and a plan that goes around what the sonar confirmed; planner chosen by parameter.
-(Bad layer parameters: test_obstacle_layer.py, the same check the node raises at start.)"""
+(Bad layer parameters: test_obstacle_layer.py, the same check the node raises at start.) The ``rig``
+fixture (conftest.py) starts rrt_node and a probe on a domain of their own."""
 from __future__ import annotations
 
-import itertools
 import math
-import os
-import sys
-from pathlib import Path as FsPath
 
 import numpy as np
-import pytest
-
-sys.path.insert(0, str(FsPath(__file__).resolve().parents[1] / "graph"))
-from graph_testlib import BIN, ROOT, Probe, Proc  # noqa: E402
 
 from cage_planner_msgs.msg import PlannerStatus  # noqa: E402
 from geometry_msgs.msg import PoseStamped  # noqa: E402
@@ -27,28 +20,6 @@ from cage_sim.sonar import make_sonar  # noqa: E402
 from cage_sim.world import Obstacle, World, segment_clearance  # noqa: E402
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-_ids = itertools.count()
-
-
-@pytest.fixture
-def rig(tmp_path):
-    env = os.environ.copy()
-    env["ROS_DOMAIN_ID"] = str((os.getpid() * 13 + next(_ids) * 19) % 90 + 10)
-    env["PYTHONUNBUFFERED"] = "1"
-    env["PATH"] = f"{BIN}{os.pathsep}{env.get('PATH', '')}"
-    probe = Probe(int(env["ROS_DOMAIN_ID"]))
-    procs: list[Proc] = []
-
-    def launch(*ros_args: str) -> Proc:
-        argv = ["ros2", "run", "cage_global_rrt", "rrt_node", "--ros-args", "-r", "__ns:=/cage", "--params-file",
-                str(ROOT / "ros2_ws/src/cage_global_rrt/config/rrt.yaml"), *ros_args]
-        procs.append(Proc(argv, env, tmp_path / f"rrt_node-{len(procs)}.log"))
-        return procs[-1]
-
-    yield probe, launch
-    for p in procs:
-        p.stop()
-    probe.close()
 
 
 def test_layer_learns_from_scans_and_the_plan_avoids_it(rig):

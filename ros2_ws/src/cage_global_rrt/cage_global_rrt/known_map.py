@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cage_sim.net import NetShape
+from cage_sim.vehicle import VehicleParams
 from cage_sim.world import Obstacle, World
 
 NET_MODELS = ("nominal", "current")
@@ -38,8 +39,9 @@ class KnownMap:
     @classmethod
     def from_world(cls, world: World, net_model: str = "nominal") -> "KnownMap":
         """The planner's map of ``world``; ``net_model`` (``NET_MODELS``) says which net wall it plans on."""
-        if net_model not in NET_MODELS:
-            raise ValueError(f"net_model: expected one of {NET_MODELS}, got {net_model!r}")
+        err = net_model_error(net_model, world.current if net_model == "current" else (0.0, 0.0))
+        if err:
+            raise ValueError(err)
         kmap = cls.from_obstacles(world.net_radius, world.known)
         if net_model == "current":
             discs = wall_discs(NetShape.from_current(world.net_radius, world.current))
@@ -68,6 +70,22 @@ class KnownMap:
         obs = [Obstacle("square", x, y, 2.0 * h) for x, y, h in self.squares]
         obs += [Obstacle("circle", x, y, r) for x, y, r in self.circles]
         return World(self.net_radius, tuple(obs))
+
+
+def net_model_error(net_model: str, current) -> str | None:
+    """Why (``net_model``, ``current``) cannot make a planner map, or None: the model must be one of
+    ``NET_MODELS`` and ``current`` two finite numbers (m/s, map frame, inside the pen) slower than
+    the vehicle (a current as fast as the vehicle is one it cannot make headway against)."""
+    if net_model not in NET_MODELS:
+        return f"net_model: expected one of {NET_MODELS}, got {net_model!r}"
+    vals = None if isinstance(current, (str, bytes)) or not hasattr(current, "__len__") else list(current)
+    if vals is None or len(vals) != 2 or not all(
+            isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v) for v in vals):
+        return f"current: expected [vx, vy], two finite numbers in m/s, got {current!r}"
+    speed, vmax = math.hypot(*vals), VehicleParams().speed
+    if speed >= vmax:
+        return f"current: {speed:.2f} m/s is not slower than the vehicle ({vmax:.2f} m/s through the water)"
+    return None
 
 
 def wall_discs(net: NetShape) -> list[tuple[float, float, float]]:

@@ -119,9 +119,14 @@ NODE_PARAMETERS: dict[str, Any] = {
     "turning_radius": default_turning_radius(), "check_resolution": 0.1, "planner_seed": 1,
     "flyable": False, "arc_spacing": 0.5, "frame_id": "map",
     "obstacle_layer": False, "layer_confirm_scans": 3, "layer_forget_scans": 3,
+    "net_model": "nominal", "current": [0.0, 0.0],   # known_map.NET_MODELS; the site's mean current, m/s
 }
 # Node parameters that are not planner options: the node's own and the obstacle layer's.
-NODE_ONLY = ("frame_id", "planner_seed", "obstacle_layer", "layer_confirm_scans", "layer_forget_scans")
+NODE_ONLY = ("frame_id", "planner_seed", "obstacle_layer", "layer_confirm_scans", "layer_forget_scans",
+             "net_model", "current")
+# Node parameters that ``ros2 param set`` changes at run time (the planner map is rebuilt); the
+# others are read at start only.
+RUNTIME = ("net_model", "current")
 
 
 class InvalidParameters(ValueError):

@@ -9,12 +9,20 @@ both stamped with the request's stamp (a replan keeps it), so the navigator pair
 the goal it asked for. A failed request publishes an empty Path, so nobody keeps following a plan
 made for another goal.
 
+Net model (parameters ``net_model`` and ``current``, ``known_map``): ``current`` plans on the net
+wall that the site's mean current (``current``: [vx, vy] m/s in the map frame, inside the pen, as
+an ADCP or the vehicle's DVL estimate gives it) pushes in; ``nominal`` (the default) on the
+surveyed circle of the map. Both can be changed at run time (``ros2 param set <ns>/rrt_node current
+"[0.3, 0.0]"``): the planner map is rebuilt from the last map and the next plan uses it; the other
+parameters are read at start, so changing them is refused with the reason.
+
 Bad parameters stop the node at start with one clear message; bad input in a callback is logged
 and published as a status, never raised.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from cage_planner_msgs.msg import CageMap, MissionEvent, PlannerStatus
@@ -28,9 +36,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw, stamp_ns
 
-from ..known_map import KnownMap
+from ..known_map import KnownMap, net_model_error
 from ..obstacle_layer import LayerParams, ObstacleLayer, plan_with_layer
-from ..options import NODE_PARAMETERS, InvalidParameters, options_from_parameters
+from ..options import NODE_PARAMETERS, RUNTIME, InvalidParameters, options_from_parameters
 from ..planner import GlobalPlanner, PlanResult
 from ..status import PlanStatus
 
@@ -45,6 +53,11 @@ class RrtNode(Node):
         if not self.frame_id:
             raise InvalidParameters("parameter frame_id must not be empty")
         self.planner = GlobalPlanner(options=options_from_parameters(values))
+        err = net_model_error(values["net_model"], values["current"])
+        if err:
+            raise InvalidParameters(f"parameter {err}")
+        self.net_model, self.current = str(values["net_model"]), tuple(float(v) for v in values["current"])
+        self.map_world = None                  # the last map received (rebuilt when the net model changes)
         self.pose: tuple[float, float, float] | None = None
         self.goal: tuple[float, ...] | None = None
         self.request_ns: int | None = None     # stamp of the request being answered
@@ -69,9 +82,36 @@ class RrtNode(Node):
                                      qos_profile_sensor_data)
             self.layer_version = -1
             self.last_scan_ns: int | None = None
+        self.add_on_set_parameters_callback(self.on_set_parameters)
         o = self.planner.options
         self.get_logger().info(f"rrt_node ready: {o.planner}, step {o.max_step} m, clearance {o.clearance} m, "
-                               f"dubins {o.dubins}, frame {self.frame_id}")
+                               f"dubins {o.dubins}, net {self._net_text()}, frame {self.frame_id}")
+
+    def _net_text(self) -> str:
+        return self.net_model if self.net_model == "nominal" else \
+            f"{self.net_model} ({math.hypot(*self.current):.2f} m/s)"
+
+    def on_set_parameters(self, params):
+        """``net_model`` and ``current`` take effect at the next plan (the map is rebuilt now); the
+        other parameters are read at start only, so changing them is refused with the reason."""
+        from rcl_interfaces.msg import SetParametersResult
+        model, current = self.net_model, self.current
+        for prm in params:
+            if prm.name in NODE_PARAMETERS and prm.name not in RUNTIME:
+                return SetParametersResult(successful=False,
+                                           reason=f"{prm.name} is read at start only: restart the node to change it")
+            if prm.name == "net_model":
+                model = prm.value
+            elif prm.name == "current":
+                current = prm.value     # a list here, an array.array in rclpy: checked below
+        err = net_model_error(model, current)
+        if err:
+            return SetParametersResult(successful=False, reason=err)
+        self.net_model, self.current = str(model), tuple(float(v) for v in current)
+        if self.map_world is not None:
+            self.set_known(self.known_map(self.map_world))
+        self.get_logger().info(f"net model {self._net_text()} from the next plan")
+        return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ callbacks
 
@@ -88,18 +128,30 @@ class RrtNode(Node):
                                  clear_plan=False)
         return guarded
 
+    def known_map(self, world) -> KnownMap:
+        """The planner's map of the map message's ``world`` under the node's net model."""
+        return KnownMap.from_world(replace(world, current=self.current), self.net_model)
+
+    def set_known(self, known: KnownMap) -> None:
+        """Plan on ``known`` from now on; an obstacle layer keeps what it has learnt."""
+        self.planner.set_map(known)
+        if self.layer is not None:
+            self.layer.known = known
+        self.planner.prepare()  # build the OMPL setup now, not in the next request
+
     def on_map(self, msg) -> None:
         try:
-            known = KnownMap.from_world(map_to_world(msg))
+            world = map_to_world(msg)
+            known = self.known_map(world)
         except ValueError as err:
             self.get_logger().error(f"map rejected: {err}")
             self.publish(PlanResult(PlanStatus.INVALID_INPUT, f"map rejected: {err}"), clear_plan=False)
             return
-        self.planner.set_map(known)
+        self.map_world = world
         if self.layer_params is not None:   # a new map starts a new layer
             self.layer = ObstacleLayer(known, self.layer_params)
-        self.planner.prepare()  # build the OMPL setup now, not in the first request
-        self.get_logger().info(f"map: net {known.net_radius:g} m, {len(known.squares) + len(known.circles)} obstacles")
+        self.set_known(known)
+        self.get_logger().info(f"map: net {known.net_radius:g} m, {len(world.known)} obstacles, net model {self._net_text()}")
         if self.waiting_for_map and self.goal is not None:
             self.request()
 
