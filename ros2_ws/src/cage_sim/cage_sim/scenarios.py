@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 
 from .current import CurrentMode, random_field
+from .escape import escapable
 from .fish import FishSchool
 from .net import MAX_LOSS
 from .world import Obstacle, World
@@ -316,7 +317,9 @@ def _free_point(rng, radius, taken, bound, gap, tries=500):
 
 def generate_cage(rng: np.random.Generator, p: CageParams = CageParams(), name: str = "cage") -> Scenario:
     """The full cage: known squares on the map, start/goal far apart, unknown obstacles (about half
-    on the straight route, where they matter), optional moving fish schools and a current."""
+    on the straight route, where they matter), optional moving fish schools and a current. A start
+    no sequence of decisions leads out of a collision from (``escape.escapable``: a strong current
+    pushing the vehicle into an obstacle it points at) is drawn again."""
     for _ in range(100):
         taken: list[tuple[Point, float]] = []
         known = []
@@ -359,8 +362,10 @@ def generate_cage(rng: np.random.Generator, p: CageParams = CageParams(), name: 
                     continue
             if world.net.clearance(*start) < keep_clear or world.net.clearance(*goal) < min(keep_clear, p.goal_wall or keep_clear) - 0.02:
                 continue   # the pushed-in wall took the start or the goal: draw again
-        return Scenario(name, world, (start[0], start[1], math.atan2(math.sin(heading), math.cos(heading))), goal,
-                        sensor=p.sensor)
+        pose = (start[0], start[1], math.atan2(math.sin(heading), math.cos(heading)))
+        if not escapable(world, pose):
+            continue   # a current pushes the vehicle into an obstacle whatever it does: draw again (escape.py)
+        return Scenario(name, world, pose, goal, sensor=p.sensor)
     raise RuntimeError("could not place a cage scenario; loosen CageParams")
 
 
