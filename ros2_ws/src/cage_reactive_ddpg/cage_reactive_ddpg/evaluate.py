@@ -242,7 +242,11 @@ def main(argv: list[str] | None = None) -> int:
                                                 "(default out/matrix_<name>)")
     ap.add_argument("--reuse", default=None,
                     help="with --matrix: JSONs (comma-separated) written by earlier --matrix runs with the same "
-                         "matrix, seed, episodes, planner and sensor; their drivers' rows are reused, not run again")
+                         "matrix, seed, episodes, planner and sensor; their rows (cell, driver) are reused, "
+                         "not run again (the first file's row wins)")
+    ap.add_argument("--cells", default=None,
+                    help="with --matrix: only these cells (indices, e.g. 0-3,6); each keeps its own missions, so "
+                         "parts run in separate processes merge with --reuse into the whole matrix")
     a = ap.parse_args(argv)
     if a.matrix:
         return matrix_main(a)
@@ -278,8 +282,8 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str) -> list[
                           ("motion", motion), ("sensor", sensor), ("replan", a.replan)):
             if old.get(key, "off") != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
-        have = {r["driver"] for r in rows}
-        rows += [r for r in old["rows"] if r["driver"] not in have]
+        have = {(r["cell"], r["driver"]) for r in rows}
+        rows += [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
     return rows
 
 
@@ -301,8 +305,11 @@ def matrix_main(a: argparse.Namespace) -> int:
             drivers["baseline"] = ArcController(env.layout)     # the same scan (and memory) as the policy
         motion = env.motion
         old = _reused(a, name, motion, env.sonar.profile)
-        rows = mx.run_matrix(cells, {d: v for d, v in drivers.items() if d not in {r["driver"] for r in old}},
-                             a.episodes, a.seed, a.planner, env, progress=not a.quiet, replan=a.replan == "on")
+        wanted_cells = set(mx.parse_cells(a.cells, len(cells)))
+        skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
+                                                          for d in drivers}
+        rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, env, progress=not a.quiet,
+                             replan=a.replan == "on", skip=skip)
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
@@ -312,7 +319,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     prefix.parent.mkdir(parents=True, exist_ok=True)
     policy = str(a.policy or "shipped policy")
     if a.reuse:
-        policy += f" (rows of {sorted({r['driver'] for r in _reused(a, name, motion, env.sonar.profile)})} from {a.reuse})"
+        policy += f" (rows of {sorted({r['driver'] for r in old})} from {a.reuse})"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {a.episodes} missions per cell, seed {a.seed}, "
              f"planner {a.planner}, replan {a.replan}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}")
     md = mx.markdown(rows, title)

@@ -137,6 +137,23 @@ MATRICES: dict[str, list[Condition]] = {
 
 # --------------------------------------------------------------------------- the evaluation matrix
 
+def parse_cells(spec: str | None, n: int) -> list[int]:
+    """``0-3,6`` -> [0, 1, 2, 3, 6] (cell indices of an ``n``-cell matrix); None or "" -> all."""
+    if not spec:
+        return list(range(n))
+    out: list[int] = []
+    for part in filter(None, (p.strip() for p in spec.split(","))):
+        lo, dash, hi = part.partition("-")
+        try:
+            a, b = int(lo), int(hi) if dash else int(lo)
+        except ValueError:
+            raise ValueError(f"--cells: {part!r} is not an index or a range like 0-3") from None
+        if not 0 <= a <= b < n:
+            raise ValueError(f"--cells: {part!r} is outside the matrix's cells 0-{n - 1}")
+        out += [k for k in range(a, b + 1) if k not in out]
+    return out
+
+
 def load_matrix(spec: str) -> tuple[str, list[Condition]]:
     """A named matrix (``MATRICES``) or a YAML file: a list of cells ``{current, obstacles, goal,
     schools}``, or a grid ``{currents: [...], obstacles: [...], goals: [...], schools: [...]}``."""
@@ -166,11 +183,14 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 
 
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
-               env=None, progress: bool = False, replan: bool = False) -> list[dict]:
-    """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver).
+               env=None, progress: bool = False, replan: bool = False,
+               skip: "set[tuple[int, str]] | frozenset" = frozenset()) -> list[dict]:
+    """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver)
+    not in ``skip`` (rows another run made, or cells another process runs).
 
     Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
-    in effect), so drivers meet identical missions and cells never share one."""
+    in effect), so drivers meet identical missions and cells never share one, whichever cells a
+    run does."""
     from cage_sim.mission import EnvConfig
 
     from .evaluate import replan_planner, run_missions, summarize
@@ -179,6 +199,9 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     routes = waypoint_fn(planner)
     rows = []
     for k, cell in enumerate(cells):
+        todo = {d: v for d, v in drivers.items() if (k, d) not in skip}
+        if not todo:
+            continue
         scs = []
         for i in range(episodes):
             sc = cell.sample(np.random.default_rng([seed, k, i]))
@@ -187,7 +210,7 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                 if wps is not None and len(wps):
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
-        for dname, drv in drivers.items():
+        for dname, drv in todo.items():
             s = summarize(run_missions(drv, scs, env, progress=progress, replan=replan_planner(routes, replan)))
             rows.append({"cell": k, "sensor": env.sonar.profile, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
