@@ -57,3 +57,19 @@ def test_cli_unknown_matrix_or_driver_is_one_line(capsys):
     assert "matrix: 'nope'" in capsys.readouterr().err
     assert main(["--matrix", "tiny", "--drivers", "magic", "--quiet"]) == 2
     assert "--drivers: unknown ['magic']" in capsys.readouterr().err
+
+
+def test_cli_cells_run_in_parts_merge_into_the_whole_matrix(tmp_path):
+    """``--cells`` keeps each cell's missions, so two parts merged with ``--reuse`` are the whole run."""
+    args = ["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--policy", "baseline", "--drivers", "baseline",
+            "--quiet"]
+    whole, a, b, merged = (tmp_path / n for n in ("whole", "a", "b", "merged"))
+    assert main(args + ["--out", str(whole)]) == 0
+    assert main(args + ["--cells", "1", "--out", str(b)]) == 0
+    assert main(args + ["--cells", "0", "--out", str(a)]) == 0
+    rows_b = json.loads(b.with_suffix(".json").read_text())["rows"]
+    assert [r["cell"] for r in rows_b] == [1]
+    assert main(args + ["--reuse", f"{b.with_suffix('.json')},{a.with_suffix('.json')}", "--out", str(merged)]) == 0
+    load = lambda p: json.loads(p.with_suffix(".json").read_text())["rows"]  # noqa: E731
+    assert load(merged) == load(whole)
+    assert main(args + ["--cells", "0-5"]) == 2          # outside the matrix: one line, no run
