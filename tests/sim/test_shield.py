@@ -258,3 +258,36 @@ def test_a_current_toward_a_wall_needs_the_longer_look_ahead():
     sc = Scenario("drift_wall", World(30.0, (), wall, (0.0, 0.5)), (0.0, 0.0, np.pi / 2), (18.0, 6.0))
     assert run_one(SafetyShield(Constant(0.2), drift_horizon=0.0), sc, perception=True).outcome == "collision"
     assert run_one(SafetyShield(Constant(0.2)), sc, perception=True).outcome != "collision"
+
+
+def test_a_continuations_tail_is_the_manoeuvre_it_was_rolled_out_from():
+    """``tail`` names the continuation a check found (hold ``turn`` for ``hold`` decisions, then straight):
+    rolling that manoeuvre out again gives the same points, for every continuation of the look-ahead."""
+    shield = SafetyShield(Constant(0.0))
+    for h in (5, 8):
+        conts = shield._continuations(h)
+        for idx in range(len(conts)):
+            m = shield.tail(idx, h)
+            again = shield._points(lambda k, m=m: m.turn if k < m.hold else 0.0, h - 1)
+            np.testing.assert_allclose(again, conts[idx], atol=1e-12)
+    assert shield.tail(-1, 5) is None
+
+
+def test_an_unsafe_action_is_replaced_by_the_manoeuvre_in_hand_first():
+    """A wall 4 m ahead: straight on is unsafe, a full turn either way is safe. Which side the shield
+    turns to is the side of the manoeuvre that made the last action safe (``Commitment``), not a fresh
+    pick each decision; without one (or with ``keep_manoeuvre`` off) the pick does not depend on it."""
+    from cage_sim.perception import Perception
+    from cage_sim.shield import Commitment, Manoeuvre
+    wall = np.array([(4.0, y) for y in np.linspace(-1, 1, 9)])
+    p = Perception(wall)
+    shield = SafetyShield(Constant(0.0))
+    picks = {}
+    for side in (-1.0, 1.0):
+        commit = Commitment(Manoeuvre(side, 3))
+        picks[side] = shield.check(0.0, 20.0, 0.0, p, commit=commit)
+        assert commit.plan is not None                       # the action flown left its manoeuvre
+    assert picks == {-1.0: -1.0, 1.0: 1.0}
+    fresh = shield.check(0.0, 20.0, 0.0, p, commit=Commitment())
+    off = SafetyShield(Constant(0.0), keep_manoeuvre=False)
+    assert {off.check(0.0, 20.0, 0.0, p, commit=Commitment(Manoeuvre(s, 3))) for s in (-1.0, 1.0)} == {fresh}

@@ -21,7 +21,7 @@ from .controller import ArcController, Policy
 from .observation import ObservationBuilder
 from .perception import ReturnMotion, body_drift, perceive
 from .route import RouteTracker, StallWatch
-from .shield import SafetyShield
+from .shield import Commitment, SafetyShield
 from .sonar import Scan
 from .vehicle import VehicleParams
 
@@ -59,6 +59,7 @@ class Driver:
         self.builder = builder or ObservationBuilder(layout)
         self.motion = ReturnMotion() if perception else None
         self.stall = StallWatch() if perception else None     # used behind a shield with ``recover`` on
+        self.commit = Commitment() if perception else None    # the shield's manoeuvre in hand (shield.py)
 
     def reset(self) -> None:
         """A new mission: forget the memory, the previous scan's returns and the route's progress."""
@@ -67,6 +68,8 @@ class Driver:
             self.motion.reset()
         if self.stall is not None:
             self.stall.reset()
+        if self.commit is not None:
+            self.commit.reset()
 
     def observe(self, scan: "Scan | np.ndarray", pose, t: float, v_ground, dist: float, err: float) -> np.ndarray:
         """The policy's observation from a scan (a ``Scan`` with beam stamps, or plain ranges of now)."""
@@ -120,6 +123,6 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
         before = shield.interventions
         stalled = shield.recover and d.stall is not None and mo.remaining is not None \
             and d.stall.update(mo.remaining)
-        out[j] = shield.check(raw[j], float(dist), float(err), p, stalled)
+        out[j] = shield.check(raw[j], float(dist), float(err), p, stalled, d.commit)
         flags[j] = shield.interventions != before
     return np.clip(out, -1.0, 1.0), flags

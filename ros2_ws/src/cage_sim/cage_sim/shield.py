@@ -47,6 +47,33 @@ from .perception import Perception
 from .vehicle import VehicleParams, decision_step
 
 CHUNK = 8   # continuations rolled out at once (the straight one first): most checks stop in the first chunk
+TURN_LEVELS = (-1.0, -0.5, 0.5, 1.0)   # the turns a continuation holds (after the straight one)
+
+
+@dataclass(frozen=True)
+class Manoeuvre:
+    """A continuation the shield checked: hold ``turn`` for ``hold`` more decisions, then straight."""
+
+    turn: float
+    hold: int
+
+    def next_action(self) -> float:
+        return self.turn if self.hold > 0 else 0.0
+
+
+@dataclass
+class Commitment:
+    """One vehicle's memory between the shield's decisions: the manoeuvre that made the last action
+    safe (None: none known). Why: a shield that picks, each decision afresh, the safe action nearest
+    the policy's can swing from a hard left to a hard right and back while the policy keeps asking
+    for the same unsafe turn, and fly straight on between them into the net (seen in the sea matrix:
+    +0.6, -0.6, +1.0, -1.0 on four decisions toward a wall 5 m ahead). Flying on with the manoeuvre
+    that proved the last action safe keeps the vehicle on an escape it knows."""
+
+    plan: Manoeuvre | None = None
+
+    def reset(self) -> None:
+        self.plan = None
 
 
 @dataclass
@@ -61,6 +88,7 @@ class SafetyShield:
     open_water: bool = True          # with no return in reach, fly the classical controller's action
     approach: bool = True            # a policy action that circles the goal: the controller's approach instead
     recover: bool = True             # a policy that makes no progress (``StallWatch``): the controller flies
+    keep_manoeuvre: bool = True      # an unsafe action: the last safe manoeuvre's next action first (``Commitment``)
     decisions: int = 0
     interventions: int = 0
     approaches: int = 0              # decisions the goal-orbit guard took over (counted in interventions too)
@@ -85,7 +113,7 @@ class SafetyShield:
         if horizon not in self._conts:
             n = horizon - 1
             conts = [self._points(lambda h: 0.0, n)]
-            for b in (-1.0, -0.5, 0.5, 1.0):
+            for b in TURN_LEVELS:
                 for k in range(1, n + 1):
                     conts.append(self._points(lambda h, b=b, k=k: b if h < k else 0.0, n))
             self._conts[horizon] = np.array(conts).reshape(len(conts), 2 * n, 2)
@@ -134,11 +162,26 @@ class SafetyShield:
                    goal: np.ndarray | None = None, drift: np.ndarray | None = None,
                    horizon: int | None = None) -> float | None:
         """The first of ``candidates`` (in order) that ``safe`` accepts, or None: stops at it."""
-        look = self._look(returns, relative, goal, drift, horizon)
+        found = self._first_safe_at(candidates, self._look(returns, relative, goal, drift, horizon))
+        return None if found is None else found[0]
+
+    def _first_safe_at(self, candidates, look: tuple) -> tuple[float, int] | None:
+        """(the first safe candidate, the continuation that makes it safe: ``_margin_at``) or None."""
         for a in candidates:
-            if self._margin(float(a), look, self.min_clearance) >= self.min_clearance:
-                return float(a)
+            m, idx = self._margin_at(float(a), look, self.min_clearance)
+            if m >= self.min_clearance:
+                return float(a), idx
         return None
+
+    def tail(self, index: int, horizon: int) -> "Manoeuvre | None":
+        """The rest of continuation ``index`` (of ``horizon``) after the decision it follows has been
+        flown: what the vehicle can fly next and still keep the margin it was checked for."""
+        if index < 0:
+            return None
+        if index == 0:
+            return Manoeuvre(0.0, 0)
+        n = horizon - 1
+        return Manoeuvre(TURN_LEVELS[(index - 1) // n], (index - 1) % n + 1)
 
     def _look(self, returns, relative, goal, drift, horizon) -> tuple:
         """What every first action's check shares: continuations, their times, the returns' motion."""
@@ -181,17 +224,25 @@ class SafetyShield:
         """``margins`` for one first action, exact with no ``floor``. With one, it stops early and
         only tells which side of ``floor`` the margin lies: below it after the first decision (the
         continuations are not rolled out), at or above it at the first continuation that clears it."""
+        return self._margin_at(a, look, floor)[0]
+
+    def _margin_at(self, a: float, look: tuple, floor: float = -math.inf) -> tuple[float, int]:
+        """(``_margin``, index of the continuation that keeps it: the first that clears ``floor``,
+        else the best; -1 when none is flown: the first decision passes through the goal or already
+        falls below ``floor``)."""
         conts = look[0]
         m, through, end = self._first(a, look)
         if through or m < floor:
-            return m
-        best = -math.inf
+            return m, -1
+        best, idx = -math.inf, -1
         for lo in range(0, len(conts), CHUNK):    # stop at the first continuation that clears ``floor``
-            d = self._along(conts[lo:lo + CHUNK], end, look)
-            best = max(best, float(d.min(axis=1, initial=np.inf).max(initial=-np.inf)))
+            d = self._along(conts[lo:lo + CHUNK], end, look).min(axis=1, initial=np.inf)
+            j = int(np.argmax(d)) if len(d) else 0
+            if len(d) and float(d[j]) > best:
+                best, idx = float(d[j]), lo + j
             if best >= floor > -math.inf:
                 break
-        return min(m, best)
+        return min(m, best), idx
 
     def _profile(self, a: float, look: tuple) -> np.ndarray:
         """[h] the margin of ``a`` for look-aheads 1..h: the running minimum along each continuation,
@@ -212,10 +263,13 @@ class SafetyShield:
         """The policy's action for ``obs``, or the nearest safe one given what is perceived."""
         return self.check(float(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0]), dist, err, p)
 
-    def check(self, action: float, dist: float, err: float, p: Perception, stalled: bool = False) -> float:
+    def check(self, action: float, dist: float, err: float, p: Perception, stalled: bool = False,
+              commit: Commitment | None = None) -> float:
         """``action`` (the policy's, already computed) if it is safe, else the nearest safe one.
         ``stalled`` (the vehicle's ``StallWatch`` says so): the controller's action instead, checked
-        like the policy's.
+        like the policy's. ``commit`` (the vehicle's ``Commitment``): an unsafe action is replaced
+        first by the next action of the manoeuvre that made the last one safe, if that is still
+        safe, and only then by the nearest safe one; every action flown leaves its manoeuvre there.
 
         Open water (no return within the classical controller's reach, ~12 m): the controller's
         action, i.e. fly at the waypoint (crabbing against the drift) or through the goal. Nothing
@@ -226,6 +280,7 @@ class SafetyShield:
         if self.open_water and len(p.returns) == 0:
             b = self.fallback.decide(dist, err, p)
             self.interventions += int(abs(b - a) > 0.05)
+            self._remember(commit, -1, 0)
             return b
         guarded = stalled or (self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
                                                                         self.fallback.goal_pass, p.drift))
@@ -242,13 +297,23 @@ class SafetyShield:
         near = np.linalg.norm(p.returns, axis=1) < reach if len(p.returns) else np.zeros(0, dtype=bool)
         returns, rel = p.returns[near], p.relative()[near]
         goal = np.array([dist * math.cos(err), dist * math.sin(err)]) if p.final else None
-        if len(returns) == 0 or self.safe(np.array([a]), returns, rel, goal, p.drift, h)[0]:
+        if len(returns) == 0:
+            self._remember(commit, -1, h)
+            return a
+        look = self._look(returns, rel, goal, p.drift, h)
+        kept, idx = self._margin_at(a, look, self.min_clearance)
+        if kept >= self.min_clearance:
+            self._remember(commit, idx, h)
             return a
         self.interventions += int(not guarded)          # one override per decision, however many steps
         nearest_first = self._alternatives[np.argsort(np.abs(self._alternatives - a), kind="stable")]
-        b = self.first_safe(nearest_first, returns, rel, goal, p.drift, h)
-        if b is not None:
-            return b
+        plan = commit.plan if commit is not None and self.keep_manoeuvre else None
+        candidates = nearest_first if plan is None else np.concatenate([[plan.next_action()], nearest_first])
+        found = self._first_safe_at(candidates, look)
+        if found is not None:
+            self._remember(commit, found[1], h)
+            return found[0]
+        self._remember(commit, -1, h)
         # No action is safe over the whole look-ahead. The longest look-ahead some action survives,
         # down to the still-water horizon; among the actions that survive it, the one whose best
         # manoeuvre keeps farthest from the returns over the whole look-ahead (ties: the nearest the
@@ -259,6 +324,12 @@ class SafetyShield:
             if ok.any():
                 return float(nearest_first[ok][int(np.argmax(margin[ok, -1]))])
         return float(nearest_first[int(np.argmax(margin[:, -1]))])
+
+    def _remember(self, commit: Commitment | None, index: int, horizon: int) -> None:
+        """Leave in ``commit`` the manoeuvre (continuation ``index`` of ``horizon``) that made the
+        action flown safe, or nothing when none is known."""
+        if commit is not None:
+            commit.plan = self.tail(index, horizon)
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)
