@@ -273,10 +273,10 @@ def test_a_continuations_tail_is_the_manoeuvre_it_was_rolled_out_from():
     assert shield.tail(-1, 5) is None
 
 
-def test_an_unsafe_action_is_replaced_by_the_manoeuvre_in_hand_first():
-    """A wall 4 m ahead: straight on is unsafe, a full turn either way is safe. Which side the shield
-    turns to is the side of the manoeuvre that made the last action safe (``Commitment``), not a fresh
-    pick each decision; without one (or with ``keep_manoeuvre`` off) the pick does not depend on it."""
+def test_an_unsafe_action_is_replaced_on_the_side_of_the_manoeuvre_in_hand():
+    """A wall 4 m ahead: straight on is unsafe, turns either way are safe. Which side the shield turns
+    to is the side of the manoeuvre that made the last action safe (``Commitment``), not a fresh pick
+    each decision; without one (or with ``keep_manoeuvre`` off) the pick does not depend on it."""
     from cage_sim.perception import Perception
     from cage_sim.shield import Commitment, Manoeuvre
     wall = np.array([(4.0, y) for y in np.linspace(-1, 1, 9)])
@@ -287,7 +287,11 @@ def test_an_unsafe_action_is_replaced_by_the_manoeuvre_in_hand_first():
         commit = Commitment(Manoeuvre(side, 3))
         picks[side] = shield.check(0.0, 20.0, 0.0, p, commit=commit)
         assert commit.plan is not None                       # the action flown left its manoeuvre
-    assert picks == {-1.0: -1.0, 1.0: 1.0}
+    assert picks[-1.0] < 0.0 < picks[1.0]                       # the side of the manoeuvre in hand
+    assert shield.safe(np.array(list(picks.values())), wall).all()
     fresh = shield.check(0.0, 20.0, 0.0, p, commit=Commitment())
+    commit = Commitment(Manoeuvre(1.0, 3))
+    assert shield.check(0.0, 20.0, 0.0, Perception(np.array([(-6.0, 0.0)])), commit=commit) == 0.0
+    assert commit.plan is None                               # the policy's own safe action: nothing carried on
     off = SafetyShield(Constant(0.0), keep_manoeuvre=False)
     assert {off.check(0.0, 20.0, 0.0, p, commit=Commitment(Manoeuvre(s, 3))) for s in (-1.0, 1.0)} == {fresh}
