@@ -96,7 +96,7 @@ class SafetyShield:
     open_water: bool = True          # with no return in reach, fly the classical controller's action
     approach: bool = True            # a policy action that circles the goal: the controller's approach instead
     recover: bool = True             # a policy that makes no progress (``StallWatch``): the controller flies
-    keep_manoeuvre: bool = True      # an unsafe action: the last safe manoeuvre's next action first (``Commitment``)
+    keep_manoeuvre: bool = True      # right after an override: its manoeuvre's next action first (``Commitment``)
     decisions: int = 0
     interventions: int = 0
     approaches: int = 0              # decisions the goal-orbit guard took over (counted in interventions too)
