@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cage_sim.net import NetShape
+from cage_sim.scenarios import MAX_CURRENT
 from cage_sim.vehicle import VehicleParams
 from cage_sim.world import Obstacle, World
 
@@ -74,17 +75,19 @@ class KnownMap:
 
 def net_model_error(net_model: str, current) -> str | None:
     """Why (``net_model``, ``current``) cannot make a planner map, or None: the model must be one of
-    ``NET_MODELS`` and ``current`` two finite numbers (m/s, map frame, inside the pen) slower than
-    the vehicle (a current as fast as the vehicle is one it cannot make headway against)."""
+    ``NET_MODELS`` and ``current`` two finite numbers (m/s, map frame, inside the pen) no faster than
+    the scenarios' ``MAX_CURRENT`` (one limit for the world and the planner: a current as fast as the
+    vehicle, or nearly, is one it cannot work in)."""
     if net_model not in NET_MODELS:
         return f"net_model: expected one of {NET_MODELS}, got {net_model!r}"
     vals = None if isinstance(current, (str, bytes)) or not hasattr(current, "__len__") else list(current)
     if vals is None or len(vals) != 2 or not all(
             isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v) for v in vals):
         return f"current: expected [vx, vy], two finite numbers in m/s, got {current!r}"
-    speed, vmax = math.hypot(*vals), VehicleParams().speed
-    if speed >= vmax:
-        return f"current: {speed:.2f} m/s is not slower than the vehicle ({vmax:.2f} m/s through the water)"
+    speed = math.hypot(*vals)
+    if speed > MAX_CURRENT:
+        return (f"current: {speed:.2f} m/s is not slower than the vehicle by enough (the scenarios' limit, "
+                f"MAX_CURRENT: {MAX_CURRENT} m/s; the vehicle does {VehicleParams().speed:.2f} m/s through the water)")
     return None
 
 

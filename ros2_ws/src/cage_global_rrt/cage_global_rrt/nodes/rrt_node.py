@@ -33,6 +33,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
+from cage_sim.nodes.node_common import start_only_reason
 from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import map_to_world, odom_pose, path_msg, quaternion_to_yaw, stamp_ns
 
@@ -99,7 +100,7 @@ class RrtNode(Node):
         for prm in params:
             if prm.name in NODE_PARAMETERS and prm.name not in RUNTIME:
                 return SetParametersResult(successful=False,
-                                           reason=f"{prm.name} is read at start only: restart the node to change it")
+                                           reason=start_only_reason(prm.name))
             if prm.name == "net_model":
                 model = prm.value
             elif prm.name == "current":

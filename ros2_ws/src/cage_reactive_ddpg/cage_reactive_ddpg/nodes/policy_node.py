@@ -33,7 +33,8 @@ from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
 from cage_sim.driver import Driver
 from cage_sim.mission import EnvConfig
-from cage_sim.nodes.node_common import VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle
+from cage_sim.nodes.node_common import (VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle,
+                                        start_only_reason)
 from cage_sim.nodes.node_runner import run_node
 from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
 from cage_sim.recovery import joining_under_way, remaining_route
@@ -116,7 +117,7 @@ class PolicyNode(Node):
                     return SetParametersResult(successful=False, reason=f"{prm.name} must be a bool")
             elif prm.name in self.p or prm.name in VEHICLE_PARAMETERS:
                 return SetParametersResult(successful=False,
-                                           reason=f"{prm.name} is read at start only: restart the node to change it")
+                                           reason=start_only_reason(prm.name))
         for prm in params:
             if prm.name == "stall_recovery" and prm.value != self.p["stall_recovery"]:
                 self.p["stall_recovery"] = prm.value

@@ -67,3 +67,9 @@ def declare_sensor(node, default: str = "study"):
     except SonarConfigError as err:
         name = str(err).split(":", 1)[0].removeprefix("sonar.")
         raise ValueError(f"parameter {name}:={given.get(name, p['sensor'])!r} is invalid: {str(err).split(':', 1)[-1].strip()}") from None
+
+
+def start_only_reason(name: str) -> str:
+    """Why ``ros2 param set`` of ``name`` is refused by a node that reads it at start only (the
+    nodes answer with this reason rather than keep a value they no longer act on)."""
+    return f"{name} is read at start only: restart the node to change it"
