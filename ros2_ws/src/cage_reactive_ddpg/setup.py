@@ -28,7 +28,6 @@ setup(
             'train = cage_reactive_ddpg.train:main',
             'evaluate = cage_reactive_ddpg.evaluate:main',
             'sweep = cage_reactive_ddpg.sweep:main',
-            'distill = cage_reactive_ddpg.distill:main',
         ],
     },
 )

@@ -163,19 +163,18 @@ def _coerce(name: str, value: Any, current: Any) -> Any:
     return value
 
 
-def apply(cfg: Any, updates: dict[str, Any]) -> Any:
-    """Apply a mapping of overrides to a config dataclass (``TrainConfig``, ``distill.DistillConfig``);
-    ``reward.x`` keys (or a ``reward`` mapping) merge into a ``TrainConfig``'s reward."""
-    names = {f.name for f in fields(cfg)}
+def apply(cfg: TrainConfig, updates: dict[str, Any]) -> TrainConfig:
+    """Apply a mapping of overrides; ``reward.x`` keys (or a ``reward`` mapping) merge into reward."""
+    names = {f.name for f in fields(TrainConfig)}
     for key, value in updates.items():
-        if key.startswith("reward.") and "reward" in names:
+        if key.startswith("reward."):
             cfg.reward = {**cfg.reward, key.split(".", 1)[1]: float(_coerce(key, value, 0.0))}
         elif key == "reward":
             cfg.reward = {**cfg.reward, **dict(value)}
         elif key in names:
             setattr(cfg, key, _coerce(key, value, getattr(cfg, key)))
         else:
-            raise ValueError(f"{key}: unknown config key (the fields of {type(cfg).__name__})")
+            raise ValueError(f"{key}: unknown config key (see cage_reactive_ddpg/config.py)")
     return cfg
 
 
@@ -184,7 +183,14 @@ def build(preset: str | None = None, file: str | Path | None = None,
     """Defaults (or ``base``, e.g. a checkpoint's config) < preset < YAML file < overrides
     (``key=value`` strings or a dict)."""
     cfg = dataclasses.replace(base) if base is not None else TrainConfig()
-    data = read_yaml(file) if file else {}
+    data: dict[str, Any] = {}
+    if file:
+        try:
+            data = yaml.safe_load(Path(file).read_text()) or {}
+        except yaml.YAMLError as err:
+            raise ValueError(f"{file}: not valid YAML ({' '.join(str(err).split())})") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"{file}: expected a mapping of config keys")
     preset = preset or data.pop("preset", None)
     data.pop("preset", None)
     if preset:
@@ -192,30 +198,15 @@ def build(preset: str | None = None, file: str | Path | None = None,
             raise ValueError(f"preset: {preset!r} is not one of {', '.join(PRESETS)}")
         apply(cfg, PRESETS[preset])
     apply(cfg, data)
-    return apply_overrides(cfg, overrides).validate()
-
-
-def read_yaml(file: str | Path) -> dict[str, Any]:
-    """A YAML file of config keys as a mapping; invalid YAML or a non-mapping is one ValueError line."""
-    try:
-        data = yaml.safe_load(Path(file).read_text()) or {}
-    except yaml.YAMLError as err:
-        raise ValueError(f"{file}: not valid YAML ({' '.join(str(err).split())})") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{file}: expected a mapping of config keys")
-    return data
-
-
-def apply_overrides(cfg: Any, overrides: list[str] | dict | None) -> Any:
-    """``--set key=value`` strings (or a dict) applied to a config dataclass."""
     if isinstance(overrides, dict):
-        return apply(cfg, overrides)
-    for item in overrides or []:
-        if "=" not in item:
-            raise ValueError(f"--set {item!r}: expected key=value")
-        k, v = item.split("=", 1)
-        apply(cfg, {k.strip(): v.strip()})
-    return cfg
+        apply(cfg, overrides)
+    else:
+        for item in overrides or []:
+            if "=" not in item:
+                raise ValueError(f"--set {item!r}: expected key=value")
+            k, v = item.split("=", 1)
+            apply(cfg, {k.strip(): v.strip()})
+    return cfg.validate()
 
 
 def from_dict(d: dict) -> TrainConfig:
