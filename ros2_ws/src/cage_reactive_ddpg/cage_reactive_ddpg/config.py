@@ -68,6 +68,9 @@ class TrainConfig:
     bc_weight: float = 0.0               # behaviour-cloning weight in the actor loss (TD3+BC normalised)
     bc_weight_final: float = -1.0        # < 0: constant; else linear decay to this weight
     q_filter: bool = True                # clone only where Q(s, expert) >= Q(s, actor) (Nair et al. 2018)
+    # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
+    replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
+    replay_max_tries: int = 3            # times one mission may be flown in all
     # --- logging ------------------------------------------------------------------------
     eval_every: int = 0                  # env steps between evaluations (0 = only at the end)
     eval_episodes: int = 100
@@ -98,6 +101,8 @@ class TrainConfig:
             raise ValueError("expert_fraction / bc_weight need an expert (expert: baseline)")
         if not 0.0 <= self.expert_fraction <= 1.0 or self.expert_fraction_final > 1.0:
             raise ValueError("expert_fraction: must be in [0, 1]")
+        if not 0.0 <= self.replay_fraction <= 1.0 or self.replay_max_tries < 1:
+            raise ValueError("replay_fraction: must be in [0, 1]; replay_max_tries: >= 1")
         if self.bc_weight < 0:
             raise ValueError("bc_weight: must be >= 0")
         if self.total_steps <= 0 and self.episodes <= 0:

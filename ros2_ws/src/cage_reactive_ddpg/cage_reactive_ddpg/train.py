@@ -37,6 +37,7 @@ from .agent import DDPGAgent, GaussianNoise, OUNoise
 from .buffer import NStepFolder, ReplayBuffer
 from .config import TrainConfig
 from .evaluate import run_missions, summarize
+from .hard_cases import HardCaseReplay
 from .missions import episode_scenarios, parse_mix, sampler, waypoint_fn
 from .policy import save_policy
 from .study1d import STUDY1D, Study1DVecEnv, evaluate_1d
@@ -117,11 +118,15 @@ class Trainer:
         self.rng = np.random.default_rng(cfg.seed)
         self.env_cfg = cfg.env_config()
         self.wp_fn = waypoint_fn(cfg.planner)
+        self.replay = None
         if cfg.scenario == STUDY1D:
             self.envs = Study1DVecEnv(cfg.n_envs, seed=cfg.seed)
             obs_dim = 1
         else:
-            self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed)
+            self.replay = HardCaseReplay(cfg.replay_fraction, cfg.replay_max_tries, seed=cfg.seed) \
+                if cfg.replay_fraction > 0 else None
+            self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed,
+                                      replay=self.replay)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         self.agent = DDPGAgent(cfg, obs_dim)
         # Expert guidance: the classical baseline reads the same observation (drift from its velocity
@@ -302,6 +307,9 @@ class Trainer:
         writer.add_scalar("train/buffer_size", self.buffer.size, s)
         if self.expert is not None:
             writer.add_scalar("train/bc_weight", self.bc_weight(), s)
+        if self.replay is not None:
+            for k, v in self.replay.stats().items():
+                writer.add_scalar(f"replay/{k}", v, s)
         for k, v in info.items():
             writer.add_scalar(f"train/{k}", float(v), s)
         if recent:
@@ -344,7 +352,8 @@ class Trainer:
         meta = {"config": c.to_dict(), "evaluation": evaluation, "evaluations": self.evals,
                 "training": {"seconds": round(self.train_seconds, 1), "env_steps": self.step,
                              "episodes": self.episodes, "updates": self.updates,
-                             "torch_threads": c.threads, "command": self.command}}
+                             "torch_threads": c.threads, "command": self.command,
+                             **({"hard_case_replay": self.replay.stats()} if self.replay is not None else {})}}
         if c.scenario == STUDY1D:
             meta["observation_layout"] = {"name": STUDY1D, "size": 1}
         save_policy(self.out / f"{name}.safetensors", self.agent.actor, meta,

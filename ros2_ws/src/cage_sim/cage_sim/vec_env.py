@@ -19,6 +19,10 @@ observation wrappers (e.g. ``NormalizeObservation``) accept only that mode (or D
 
 Seeding: each env draws its scenarios from its own generator, spawned from one ``SeedSequence``;
 ``reset(seed=s)`` re-spawns them, so a seed fixes every episode of every env.
+
+``replay``: an object with ``offer(scenario, outcome, tries)`` and ``draw() -> (scenario, tries) |
+None`` (the trainer's ``HardCaseReplay``) is offered every finished mission and may hand back a
+failed one to fly again instead of a fresh draw.
 """
 from __future__ import annotations
 
@@ -43,7 +47,7 @@ class CageNavVecEnv(VectorEnv):
 
     def __init__(self, n_envs: int, scenario: Any = "cage", config: EnvConfig | None = None,
                  waypoint_fn: WaypointFn | None = None, seed: int = 0,
-                 autoreset_mode: str | AutoresetMode = AutoresetMode.SAME_STEP):
+                 autoreset_mode: str | AutoresetMode = AutoresetMode.SAME_STEP, replay: Any = None):
         if int(n_envs) < 1:
             raise ValueError(f"n_envs: must be >= 1, got {n_envs}")
         names = {"same_step": AutoresetMode.SAME_STEP, "next_step": AutoresetMode.NEXT_STEP}
@@ -61,6 +65,8 @@ class CageNavVecEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = None
+        self.replay = replay
+        self._tries = np.ones(self.num_envs, dtype=int)       # times each env's mission has been flown
         self._seed(seed)
         self.missions: list[Mission] = []
 
@@ -82,10 +88,23 @@ class CageNavVecEnv(VectorEnv):
         """Start a fresh mission in every env; ``seed`` re-seeds their scenario generators."""
         if seed is not None:
             self._seed(seed)
-        self.missions = [Mission(prepare(self.sampler, r, self.waypoint_fn), self.config) for r in self.rngs]
+        self.missions = [self._new_mission(i) for i in range(self.num_envs)]
         self._pending[:] = False
         obs = self._observe(range(self.num_envs))
         return obs, self._step_infos([None] * self.num_envs)
+
+    def _new_mission(self, i: int) -> Mission:
+        """Env ``i``'s next mission: a failed one to fly again (``replay``) or a fresh draw."""
+        again = self.replay.draw() if self.replay is not None else None
+        if again is not None:
+            sc, self._tries[i] = again
+        else:
+            sc, self._tries[i] = prepare(self.sampler, self.rngs[i], self.waypoint_fn), 1
+        return Mission(sc, self.config)
+
+    def _ended(self, i: int, outcome: str) -> None:
+        if self.replay is not None:
+            self.replay.offer(self.missions[i].scenario, outcome, int(self._tries[i]))
 
     def _observe(self, idx) -> np.ndarray:
         return observe_batch(self.config, [self.missions[i] for i in idx], self.rngs[0])
@@ -104,10 +123,12 @@ class CageNavVecEnv(VectorEnv):
         outcomes: list[str | None] = [None] * self.num_envs
         for i, (m, a) in enumerate(zip(self.missions, actions)):
             if self._pending[i]:    # next_step mode: this step only starts the new episode
-                self.missions[i] = Mission(prepare(self.sampler, self.rngs[i], self.waypoint_fn), self.config)
+                self.missions[i] = self._new_mission(i)
                 rewards[i] = 0.0
             else:
                 rewards[i], outcomes[i] = m.step(float(a))
+                if outcomes[i] is not None:
+                    self._ended(i, outcomes[i])
         terminated = np.array([o in TERMINAL for o in outcomes])
         truncated = np.array([o == "timeout" for o in outcomes])
         obs = self._observe(range(self.num_envs))
@@ -122,7 +143,7 @@ class CageNavVecEnv(VectorEnv):
                 final_obs[i] = obs[i].copy()
                 final_info = self._add_info(final_info, {**self.missions[i].info(),
                                                          "is_success": outcomes[i] == "goal"}, int(i))
-                self.missions[i] = Mission(prepare(self.sampler, self.rngs[i], self.waypoint_fn), self.config)
+                self.missions[i] = self._new_mission(i)
             infos.update(final_obs=final_obs, _final_obs=terminated | truncated, final_info=final_info,
                          _final_info=terminated | truncated)
             obs[done] = self._observe(done)
