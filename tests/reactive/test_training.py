@@ -106,6 +106,23 @@ def test_every_shipped_training_config_builds_and_builds_its_env(name):
         assert env.sonar.profile == cfg.sensor
 
 
+def test_memory_only_options_reach_the_policy_file_and_the_evaluator(tmp_path, tiny_overrides):
+    """memory_horizon and scan_in_obs (the scanning policy's observation: the motion-compensated
+    memory without the raw sweep) are in the trained file, and ``env_config_for`` rebuilds the same
+    layout from it: the evaluator and policy_node observe as the trainer did."""
+    from cage_reactive_ddpg.policy import env_config_for, load_policy
+    over = {**tiny_overrides, "scenario": "cage", "sensor": "scanning", "observation": "v2", "velocity": True,
+            "memory_bins": 36, "memory_horizon": 6.0, "scan_in_obs": False, "n_envs": 2, "prefill_steps": 100,
+            "eval_episodes": 2}
+    out = tmp_path / "run"
+    assert main(["--steps", "200", "--out", str(out), "--quiet", *[x for k, v in over.items()
+                                                                     for x in ("--set", f"{k}={v}")]]) == 0
+    pol = load_policy(out / "policy.safetensors", profile="scanning")
+    layout = env_config_for(pol.metadata).layout
+    assert (layout.scan, layout.memory_bins, layout.memory_horizon) == (False, 36, 6.0)
+    assert layout == pol.layout and layout.size == 36 + 2 + 2
+
+
 def _cli_tiny(tiny):
     """--set flags of a tiny study2d run."""
     over = {**tiny, "scenario": "study2d", "n_envs": 4, "prefill_steps": 200, "eval_episodes": 5,

@@ -110,5 +110,11 @@ def test_a_sweep_goes_out_as_a_laserscan_from_its_oldest_beam_and_comes_back():
                                f["time_increment"], s, (0.5, 0.0, 0.0), previous_stamp=0.0)
     assert np.array_equal(back.ranges, scan.ranges) and np.allclose(back.stamps, scan.stamps)
     assert np.array_equal(back.new, scan.new)
+    # given the two decisions' poses, the receiver places each new beam where the head fired it from
+    placed = scan_from_laserscan(f["ranges"], f["angle_min"], f["angle_increment"], f["stamp"], f["time_increment"],
+                                 s, (0.5, 0.0, 0.0), 0.0, ((0.0, 0.0, 0.0, 0.0), (1.0, 0.5, 0.0, 0.0)))
+    assert np.allclose(placed.origins[scan.new], scan.origins[scan.new], atol=1e-9)
+    assert np.ptp(placed.origins[scan.new, 0]) > 0.4          # beams along the way, not all from here
+    assert np.array_equal(placed.origins[~scan.new], back.origins[~scan.new])
     with pytest.raises(ValueError, match="scan has 72 ranges, the scanning profile has 180"):
         scan_from_laserscan(np.ones(72), 0.0, f["angle_increment"], 0.0, 0.0, s, (0.0, 0.0, 0.0))

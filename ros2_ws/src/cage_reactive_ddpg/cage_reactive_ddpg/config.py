@@ -31,6 +31,8 @@ class TrainConfig:
     observation: str = "auto"            # v1 (the study's layout), v2, auto (v1 for plain study)
     velocity: bool = False               # v2: velocity over ground (DVL) in the observation
     memory_bins: int = 0                 # v2: egocentric memory of recent returns (0 = none)
+    memory_horizon: float = 10.0         # v2: seconds a return stays in the memory
+    scan_in_obs: bool = True             # v2: the raw scan in the observation (False: memory only)
     # --- budget -------------------------------------------------------------------------
     seed: int = 0
     total_steps: int = 0                 # env steps (all envs together); 0 = use episodes
@@ -82,7 +84,8 @@ class TrainConfig:
     # ------------------------------------------------------------------------------------
     def env_config(self) -> EnvConfig:
         return EnvConfig(reward=RewardConfig(**self.reward), motion=self.motion, sonar=self.sensor,
-                         observation=self.observation, velocity=self.velocity, memory_bins=self.memory_bins)
+                         observation=self.observation, velocity=self.velocity, memory_bins=self.memory_bins,
+                         memory_horizon=self.memory_horizon, scan_in_obs=self.scan_in_obs)
 
     def validate(self) -> "TrainConfig":
         bad = set(self.reward) - {f.name for f in fields(RewardConfig)}

@@ -134,7 +134,9 @@ def env_config_for(meta: dict, motion: str | None = None):
     cfg = meta.get("config") or {}
     return EnvConfig(motion=motion or cfg.get("motion") or "continuous", sonar=cfg.get("sensor", "study"),
                      observation=cfg.get("observation", "auto"), velocity=bool(cfg.get("velocity", False)),
-                     memory_bins=int(cfg.get("memory_bins", 0)))
+                     memory_bins=int(cfg.get("memory_bins", 0)),
+                     memory_horizon=float(cfg.get("memory_horizon", 10.0)),
+                     scan_in_obs=bool(cfg.get("scan_in_obs", True)))
 
 
 def load_policy(path: str | Path | None = None, layout: ObservationLayout | None = None,

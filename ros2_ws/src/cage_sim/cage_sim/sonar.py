@@ -332,14 +332,31 @@ def laserscan_fields(scan: Scan, sonar: SonarModel) -> dict:
             "range_min": sonar.min_range, "range_max": sonar.max_range, "ranges": scan.ranges[order].copy()}
 
 
+def beam_origins(times: np.ndarray, previous: tuple[float, float, float, float],
+                 now: tuple[float, float, float, float]) -> np.ndarray:
+    """(K, 3) poses (x, y, yaw) the vehicle had at beam ``times``, interpolated linearly between two
+    known poses ``previous`` and ``now`` (each ``(t, x, y, yaw)``; yaw the short way round, times
+    clipped to the interval). The scanning head fires its beams from these poses and ``policy_node``
+    places the beams it receives with the same function, so a memory of map points built from a
+    mechanical head's sweeps is the same in the graph as offline."""
+    t0, x0, y0, yaw0 = previous
+    t, x, y, yaw = now
+    f = np.clip((np.asarray(times, dtype=np.float64) - t0) / max(t - t0, 1e-12), 0.0, 1.0)
+    dyaw = (yaw - yaw0 + math.pi) % (2 * math.pi) - math.pi
+    return np.c_[x0 + f * (x - x0), y0 + f * (y - y0), yaw0 + f * dyaw]
+
+
 def scan_from_laserscan(ranges, angle_min: float, angle_increment: float, stamp: float, time_increment: float,
                         sonar: SonarModel, pose: tuple[float, float, float],
-                        previous_stamp: float = -math.inf) -> Scan:
+                        previous_stamp: float = -math.inf,
+                        track: tuple[tuple[float, float, float, float], tuple[float, float, float, float]] | None = None
+                        ) -> Scan:
     """A received LaserScan back as a ``Scan`` in the profile's beam order (what ``ObservationBuilder``
-    and the layout expect). ``pose``: the vehicle's pose now (every beam's origin: the receiver does not
-    know where the vehicle was when an old beam fired). ``new``: beams later than ``previous_stamp``
-    (the latest beam time of the previous call). Raises ValueError (one line) when the scan is not
-    this profile's."""
+    and the layout expect). ``pose``: the vehicle's pose now, every beam's origin by default. ``new``:
+    beams later than ``previous_stamp`` (the latest beam time of the previous call). ``track``: two
+    known poses ``(t, x, y, yaw)``, the previous decision's and this one's; the new beams are then
+    placed where the vehicle was when each fired (``beam_origins``), as a mechanical head fired them.
+    Raises ValueError (one line) when the scan is not this profile's."""
     r = np.asarray(ranges, dtype=np.float64)
     n = sonar.n_beams
     if r.shape != (n,):
@@ -355,8 +372,10 @@ def scan_from_laserscan(ranges, angle_min: float, angle_increment: float, stamp:
     out_r, stamps = np.empty(n), np.empty(n)
     out_r[idx] = r
     stamps[idx] = stamp + np.arange(n) * time_increment
-    return Scan(out_r, sonar.angles, stamps, np.tile(np.asarray(pose, dtype=np.float64), (n, 1)),
-                stamps > previous_stamp)
+    origins, new = np.tile(np.asarray(pose, dtype=np.float64), (n, 1)), stamps > previous_stamp
+    if track is not None and new.any():
+        origins[new] = beam_origins(stamps[new], *track)
+    return Scan(out_r, sonar.angles, stamps, origins, new)
 
 
 class SonarHead:
@@ -410,7 +429,7 @@ class ScanningHead(SonarHead):
     def update(self, world: World, x: float, y: float, yaw: float, t: float = 0.0,
                rng: np.random.Generator | None = None) -> Scan:
         s, n = self.sonar, self.sonar.n_beams
-        t_prev, x0, y0, yaw0 = self.prev
+        t_prev = self.prev[0]
         if t < t_prev - 1e-9:          # time went back (a new mission, a restarted clock): start over
             return self.reset(world, x, y, yaw, t, rng)
         last_k = int(math.floor((t - self.t0) / s.time_increment + 1e-9))
@@ -419,9 +438,7 @@ class ScanningHead(SonarHead):
         if len(ks):
             ks = ks[-n:]
             times = self.t0 + ks * s.time_increment
-            f = np.clip((times - t_prev) / max(t - t_prev, 1e-12), 0.0, 1.0)
-            dyaw = (yaw - yaw0 + math.pi) % (2 * math.pi) - math.pi
-            org = np.c_[x0 + f * (x - x0), y0 + f * (y - y0), yaw0 + f * dyaw]
+            org = beam_origins(times, self.prev, (t, x, y, yaw))
             idx = ks % n
             r = s.corrupt(s.cast(world, org, s.angles[idx], t), rng)
             self.ranges[idx], self.stamps[idx], self.origins[idx] = r, times, org

@@ -85,6 +85,7 @@ class PolicyNode(Node):
         self.scan_spec = ScanSpec.from_sonar(self.sonar, self.p["sensor_frame_id"], self.p["max_invalid_fraction"])
         self.twists: OrderedDict[int, tuple[float, float]] = OrderedDict()   # DVL: body velocity over ground
         self.last_beam = -math.inf                    # latest beam time of the scan last decided on
+        self.last_placed: tuple[float, float, float, float] | None = None   # (t, pose) of that decision
         self.period_ns = decision_period_ns(self.vehicle)
         self.tracker: RouteTracker | None = None
         self.mission_id = 0
@@ -332,6 +333,7 @@ class PolicyNode(Node):
             self.tracker = RouteTracker((x, y), route, self.p["waypoint_radius"])
             self.driver.reset()                    # memory and return motion start with the mission
             self.last_beam = -math.inf
+            self.last_placed = None
             self.get_logger().info(f"mission {self.mission_id}: first decision at t={t_ns / 1e9:.1f} s, "
                                    f"route {self.tracker.length:.1f} m")
         self.tracker.advance(x, y)
@@ -340,13 +342,16 @@ class PolicyNode(Node):
             return
         dist, _ = self.tracker.waypoint(x, y, yaw)
         try:
+            # a mechanical head's new beams fired along the way from the previous decision's pose
+            placed = (t_ns / 1e9, x, y, yaw)
+            track = (self.last_placed, placed) if self.sonar.mechanical and self.last_placed else None
             scan = scan_from_laserscan(ranges, msg.angle_min, msg.angle_increment, stamp_ns(msg.header.stamp) / 1e9,
                                        msg.time_increment if self.sonar.mechanical else 0.0, self.sonar, pose,
-                                       self.last_beam)
+                                       self.last_beam, track)
         except ValueError as err:
             self.failsafe(t_ns, pose, str(err))
             return
-        self.last_beam = max(self.last_beam, float(scan.stamps.max()))
+        self.last_beam, self.last_placed = max(self.last_beam, float(scan.stamps.max())), placed
         action, shielded = self.driver.decide(scan, pose, t_ns / 1e9, self.dvl(t_ns), self.tracker)
         source = HeadingSetpoint.SOURCE_SHIELD if shielded else self.source
         self.publish_setpoint(t_ns, yaw + action * self.vehicle.max_turn, self.vehicle.speed, source)
