@@ -47,12 +47,14 @@ FLS = ROOT / "ros2_ws/src/cage_reactive_ddpg/cage_reactive_ddpg/weights/policy_f
 CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varying), small obstacles
 
 
-@pytest.mark.parametrize("weights, sensor", [(FLS, "fls"), (FLS.with_name("policy_mb360.safetensors"), "multibeam360")])
+@pytest.mark.parametrize("weights, sensor", [(FLS, "fls"), (FLS.with_name("policy_mb360.safetensors"), "multibeam360"),
+                                             (FLS.with_name("policy_scanning.safetensors"), "scanning")])
 def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path, weights, sensor):
-    """A v2 policy (its profile's scan + memory + DVL velocity) behind the shield, sim_node sensor:=
+    """A v2 policy (its profile's scan and/or memory + DVL velocity) behind the shield, sim_node sensor:=
     its profile, in a current: same outcome, same decisions, final pose within 1e-6 m of the offline
     Driver. The sonar's noise is off on both sides (the graph scans every odometry, offline every
-    decision: the noise streams cannot be the same draws)."""
+    decision: the noise streams cannot be the same draws). The scanning policy observes its memory
+    alone, so this also checks that policy_node places each beam of a sweep where the head fired it."""
     from dataclasses import replace
     from cage_reactive_ddpg.policy import env_config_for
     from cage_sim.sonar import make_sonar
