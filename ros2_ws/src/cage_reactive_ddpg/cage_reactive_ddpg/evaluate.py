@@ -44,14 +44,16 @@ class EpisodeResult:
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval for k successes in n trials (sane at 0 % and 100 %)."""
+    """95 % Wilson score interval for k successes in n trials (sane at 0 % and 100 %). The interval
+    always holds k / n; the bounds are clamped to it so that rounding (at k = 0 the lower bound
+    came out 1e-19 for n = 500) never puts the rate outside its own interval."""
     if n == 0:
         return (0.0, 1.0)
     p = k / n
     den = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    return (min(p, max(0.0, centre - half)), max(p, min(1.0, centre + half)))
 
 
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
