@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from cage_sim.controller import ArcController
+from cage_sim.controller import ArcController, nearest_distance
 from cage_sim.env import CageNavEnv
 from cage_sim.rollout import run_episode
 from cage_sim.scenarios import Scenario
@@ -295,3 +295,15 @@ def test_an_unsafe_action_is_replaced_on_the_side_of_the_manoeuvre_in_hand():
     assert commit.plan is None                               # the policy's own safe action: nothing carried on
     off = SafetyShield(Constant(0.0), keep_manoeuvre=False)
     assert {off.check(0.0, 20.0, 0.0, p, commit=Commitment(Manoeuvre(s, 3))) for s in (-1.0, 1.0)} == {fresh}
+
+
+def test_nearest_distance_is_the_definition_for_returns_that_move():
+    """min_k |p + t rel_k - q_k| for rollout points [cand, point] at their times; inf with no return."""
+    rng = np.random.default_rng(5)
+    pts, times = rng.uniform(-6, 6, (7, 9, 2)), np.linspace(0.5, 9.0, 9)[None, :]
+    q, rel = rng.uniform(-8, 8, (13, 2)), rng.uniform(-0.6, 0.6, (13, 2))
+    want = np.array([[min(np.hypot(*(pts[c, i] + times[0, i] * rel[k] - q[k])) for k in range(13))
+                      for i in range(9)] for c in range(7)])
+    assert np.allclose(nearest_distance(pts, times, rel, q), want, rtol=0, atol=1e-12)
+    assert np.isinf(nearest_distance(pts, times, np.zeros((0, 2)), np.zeros((0, 2)))).all()
+

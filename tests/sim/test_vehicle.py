@@ -57,12 +57,24 @@ def test_integration_in_small_steps_equals_one_decision(dt):
     assert (x, y, yaw) == pytest.approx(one, abs=1e-9)
 
 
-def test_vectorised_propagate_matches_scalar():
+@pytest.mark.parametrize("current", [(0.0, 0.0), (0.3, -0.2)])
+def test_vectorised_propagate_matches_scalar(current):
+    """The array path (NumPy) and the one-pose path (plain math) are two codes for one model."""
     rng = np.random.default_rng(0)
     x, y, yaw, sp = (rng.uniform(-3, 3, 50) for _ in range(4))
-    vx, vy, vyaw = propagate(x, y, yaw, sp, 0.7)
+    sp[:5] = yaw[:5]                                  # already on the setpoint: straight
+    vx, vy, vyaw = propagate(x, y, yaw, sp, 0.7, current=current)
     for i in range(50):
-        assert (vx[i], vy[i], vyaw[i]) == pytest.approx(propagate(x[i], y[i], yaw[i], sp[i], 0.7))
+        one = propagate(float(x[i]), float(y[i]), float(yaw[i]), float(sp[i]), 0.7, current=current)
+        assert all(type(v) is float for v in one)
+        assert (vx[i], vy[i], vyaw[i]) == pytest.approx(one, abs=1e-12)
+
+
+def test_heading_change_of_a_float_equals_the_array_rule():
+    p = VehicleParams()
+    acts = [-3.0, -1.0, -0.37, 0.0, 0.5, 1.0, 2.5]
+    assert [p.heading_change(a) for a in acts] == pytest.approx(list(p.heading_change(np.array(acts))), abs=0)
+    assert math.isnan(p.heading_change(float("nan")))
 
 
 def test_wrap_angle():

@@ -184,3 +184,22 @@ def test_sea_scenario_file_round_trips(tmp_path):
     save_scenario(sc, tmp_path / "again.yaml")
     back = load_scenario(tmp_path / "again.yaml")
     assert back.world == w and back.sensor == sc.sensor and back.goal == sc.goal
+
+
+@pytest.mark.parametrize("moving", [False, True])
+def test_world_clearance_is_the_nearest_of_net_obstacles_and_fish(moving):
+    """World.clearance (packed arrays) against the one-obstacle-at-a-time definition, deformed net and
+    schools included, inside obstacles (negative) and out."""
+    from cage_sim.world import Obstacle
+    rng = np.random.default_rng(3)
+    obs = tuple(Obstacle(str(rng.choice(["square", "circle"])), *rng.uniform(-20, 20, 2), rng.uniform(0.15, 2.0),
+                         *((rng.uniform(-2, 2, 2).tolist() + [rng.uniform(5, 30)]) if moving and i % 3 == 0 else ()))
+                for i in range(25))
+    w = World(30.0, obs[:10], obs[10:], current=(0.3, 0.1)).with_fish(np.array([[4.0, -5.0, 1.5], [-8.0, 2.0, 2.0]]))
+    pts = np.vstack([rng.uniform(-29, 29, (300, 2)), [[o.x, o.y] for o in obs]])
+    for t in (0.0, 7.3):
+        for x, y in pts:
+            want = min([w.net.clearance(x, y)] + [o.distance(x, y, t) for o in obs]
+                       + [math.hypot(x - cx, y - cy) - r for cx, cy, r in w.fish_circles])
+            assert w.clearance(x, y, t) == want                  # bit for bit: published runs stay reproducible
+    assert min(w.clearance(o.x, o.y, 0.0) for o in obs if not o.moving) < 0          # inside an obstacle

@@ -178,10 +178,17 @@ def nearest_distance(points: np.ndarray, times: np.ndarray, relative: np.ndarray
     """Distance from each point flown to its nearest return, each return seen from the drifting
     vehicle: ``points`` [..., 2] reached at ``times`` (broadcast to [...]), K ``returns`` [K, 2]
     with the vehicle's velocity ``relative`` to each [K, 2] -> [...]: min_k |p + t rel_k - q_k|.
-    Per coordinate, the square root after the minimum (about three times faster than the norm of
-    the whole array; most of a decision's time with a memory's 100+ returns); inf with no return.
-    One function for the baseline's rollouts and the shield's."""
+    Why it is written this way (most of a decision's time with a memory's 100+ returns): per
+    coordinate, the big [..., K] arrays are made once and then worked in place (subtract, square,
+    sum: about twice as fast as fresh temporaries, and the same operations in the same order, so
+    bit-identical to ``sqrt(min(dx * dx + dy * dy))``); the square root after the minimum. Inf
+    with no return. One function for the baseline's rollouts and the shield's."""
     t = np.asarray(times)[..., None]
-    dx = points[..., 0, None] + t * relative[:, 0] - returns[:, 0]
-    dy = points[..., 1, None] + t * relative[:, 1] - returns[:, 1]
-    return np.sqrt((dx * dx + dy * dy).min(axis=-1, initial=np.inf))
+    dx = points[..., 0, None] + t * relative[:, 0]
+    dx -= returns[:, 0]
+    np.square(dx, out=dx)
+    dy = points[..., 1, None] + t * relative[:, 1]
+    dy -= returns[:, 1]
+    np.square(dy, out=dy)
+    dx += dy
+    return np.sqrt(dx.min(axis=-1, initial=np.inf))

@@ -71,7 +71,7 @@ class CurrentField:
 
     def velocity(self, x, y, t=0.0):
         """Water velocity at (x, y, t): scalars give a (vx, vy) tuple, arrays give two arrays."""
-        scalar = np.ndim(x) == 0 and np.ndim(y) == 0
+        scalar = (isinstance(x, float) and isinstance(y, float)) or (np.ndim(x) == 0 and np.ndim(y) == 0)
         if scalar and self.modes:
             vx, vy = self.uniform
             for m in self.modes:

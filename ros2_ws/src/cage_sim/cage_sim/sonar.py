@@ -343,7 +343,7 @@ def beam_origins(times: np.ndarray, previous: tuple[float, float, float, float],
     t, x, y, yaw = now
     f = np.clip((np.asarray(times, dtype=np.float64) - t0) / max(t - t0, 1e-12), 0.0, 1.0)
     dyaw = (yaw - yaw0 + math.pi) % (2 * math.pi) - math.pi
-    return np.c_[x0 + f * (x - x0), y0 + f * (y - y0), yaw0 + f * dyaw]
+    return np.stack([x0 + f * (x - x0), y0 + f * (y - y0), yaw0 + f * dyaw], axis=-1)
 
 
 def scan_from_laserscan(ranges, angle_min: float, angle_increment: float, stamp: float, time_increment: float,

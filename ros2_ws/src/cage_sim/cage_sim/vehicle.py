@@ -60,7 +60,10 @@ class VehicleParams:
         return self.speed / self.max_yaw_rate
 
     def heading_change(self, action):
-        """Action in [-1, 1] -> change of heading (rad), clipped to the limit."""
+        """Action in [-1, 1] -> change of heading (rad), clipped to the limit. A float stays a float
+        (``np.clip`` of one number costs ~10 us, paid at every decision of every rollout)."""
+        if isinstance(action, float) and action == action:   # not NaN: NaN stays NaN through np.clip
+            return max(-1.0, min(1.0, action)) * self.max_turn
         return np.clip(action, -1.0, 1.0) * self.max_turn
 
 
@@ -77,6 +80,11 @@ def propagate(x, y, yaw, heading_setpoint, dt, speed: float = 1.0,
     Turn toward ``heading_setpoint`` at ``max_yaw_rate`` until it is reached (then straight), moving
     at ``speed`` along the heading, plus the current's drift ``current * dt``.
     """
+    if isinstance(x, float) and isinstance(y, float) and isinstance(yaw, float) \
+            and isinstance(heading_setpoint, float) and isinstance(dt, float):     # one pose: plain math, ~10x faster
+        x1, y1, yaw1 = _propagate_scalar(x, y, yaw, heading_setpoint, dt, speed, max_yaw_rate,
+                                         (float(current[0]), float(current[1])))
+        return float(x1), float(y1), float(wrap_angle(yaw1))
     err = wrap_angle(np.asarray(heading_setpoint, dtype=float) - yaw)
     t_turn = np.minimum(np.abs(err) / max_yaw_rate, dt)
     rate = np.sign(err) * max_yaw_rate

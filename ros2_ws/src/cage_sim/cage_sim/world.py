@@ -94,6 +94,29 @@ class ObstacleArrays:
     circles: np.ndarray
 
 
+def obstacle_clearance(arrs: ObstacleArrays, x: float, y: float) -> float:
+    """Signed distance from a point to the nearest packed obstacle (inf with none).
+
+    Why two passes: NumPy over all rows finds the few obstacles within 1e-9 m of the nearest (one
+    call per collision test instead of a Python call per obstacle), then those few are measured
+    with the scalar formulas of ``Obstacle.distance`` (``math.hypot``; ``np.hypot`` can differ in
+    the last bit), so the result is bit-identical to measuring every obstacle one at a time."""
+    sq, ci = arrs.squares, arrs.circles
+    if not len(sq) and not len(ci):
+        return math.inf
+    dx, dy = np.abs(x - sq[:, 0]) - sq[:, 2], np.abs(y - sq[:, 1]) - sq[:, 2]
+    d_sq = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0)) + np.minimum(np.maximum(dx, dy), 0.0)
+    d_ci = np.hypot(x - ci[:, 0], y - ci[:, 1]) - ci[:, 2]
+    near = min(d_sq.min(initial=math.inf), d_ci.min(initial=math.inf)) + 1e-9
+    best = math.inf
+    for cx, cy, h in sq[d_sq <= near].tolist():
+        ex, ey = abs(x - cx) - h, abs(y - cy) - h
+        best = min(best, math.hypot(max(ex, 0.0), max(ey, 0.0)) + min(max(ex, ey), 0.0))
+    for cx, cy, r in ci[d_ci <= near].tolist():
+        best = min(best, math.hypot(x - cx, y - cy) - r)
+    return best
+
+
 def pack(obstacles: Iterable[Obstacle], t: float = 0.0) -> ObstacleArrays:
     sq, ci = [], []
     for ob in obstacles:
@@ -197,15 +220,7 @@ class World:
     def clearance(self, x: float, y: float, t: float = 0.0) -> float:
         """Distance from a point to the nearest boundary (net or obstacle); negative inside one."""
         best = self._net.clearance(x, y)
-        for ob in self.obstacles:
-            d = ob.distance(x, y, t)
-            if d < best:
-                best = d
-        for cx, cy, r in self._fish:
-            d = math.hypot(x - cx, y - cy) - r
-            if d < best:
-                best = d
-        return best
+        return min(best, obstacle_clearance(self.arrays(t), x, y))
 
     def in_collision(self, x: float, y: float, t: float = 0.0) -> bool:
         """The study's collision test, with boundaries: closer than the safety radius to anything."""
