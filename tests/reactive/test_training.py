@@ -57,6 +57,24 @@ def test_same_seed_gives_identical_weights(tmp_path, tiny_overrides):
     assert (a.out / "episodes.csv").is_file() and (a.out / "learning_curve.png").is_file()
 
 
+def test_env_workers_train_the_same_weights_as_one_process(tmp_path, tiny_overrides):
+    """Two env worker processes (the envs and the expert's labels there) give bit-identical weights
+    to one process when the sonar draws no noise (then only the scenario generators draw, one per env,
+    the same in both); the checkpoint holds every env's generator."""
+    over = {**tiny_overrides, "scenario": "cage", "total_steps": 800, "n_envs": 4, "prefill_steps": 200,
+            "eval_episodes": 3, "expert": "baseline", "expert_fraction": 0.5, "bc_weight": 1.0}
+    a, _ = _train(tmp_path, "one", over)
+    b, _ = _train(tmp_path, "two", {**over, "env_workers": 2})
+    wa, wb = load_file(str(a.out / "policy.safetensors")), load_file(str(b.out / "policy.safetensors"))
+    for k in wa:
+        assert (wa[k] == wb[k]).all(), k
+    assert a.rows == [{**r, "seconds": ra["seconds"]} for r, ra in zip(b.rows, a.rows)] and a.episodes > 10
+    assert len(torch.load(b.out / "checkpoint.pt", weights_only=True)["env_rngs"]) == 4
+    assert not any(p.is_alive() for p in b.envs._procs)            # run() ended its workers
+    with pytest.raises(ValueError, match="env_workers"):
+        config_mod.build("study", overrides={**over, "env_workers": 2, "replay_fraction": 0.2})
+
+
 def test_resume_continues_from_checkpoint(tmp_path, tiny_overrides):
     over = {**tiny_overrides, "scenario": "study2d", "total_steps": 600, "n_envs": 4, "prefill_steps": 200,
             "eval_episodes": 5}

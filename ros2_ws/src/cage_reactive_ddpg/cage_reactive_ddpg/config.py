@@ -39,6 +39,7 @@ class TrainConfig:
     episodes: int = 10_000               # the study's 10,000 episodes (used when total_steps == 0)
     n_envs: int = 1                      # missions stepped together (CageNavVecEnv)
     threads: int = 1                     # torch intra-op threads
+    env_workers: int = 1                 # processes stepping the envs (and the expert); 2 on 2 cores
     # --- DDPG (the study's values) ------------------------------------------------------
     actor_hidden: tuple = (400, 300)
     critic_hidden: tuple = (400, 300)
@@ -106,6 +107,10 @@ class TrainConfig:
             raise ValueError("expert_fraction: must be in [0, 1]")
         if not 0.0 <= self.replay_fraction <= 1.0 or self.replay_max_tries < 1:
             raise ValueError("replay_fraction: must be in [0, 1]; replay_max_tries: >= 1")
+        if not 1 <= self.env_workers <= self.n_envs:
+            raise ValueError(f"env_workers: must be between 1 and n_envs ({self.n_envs}), got {self.env_workers}")
+        if self.env_workers > 1 and self.replay_fraction > 0:
+            raise ValueError("env_workers > 1: hard-case replay (replay_fraction > 0) needs one env process")
         if self.bc_weight < 0:
             raise ValueError("bc_weight: must be >= 0")
         if self.total_steps <= 0 and self.episodes <= 0:

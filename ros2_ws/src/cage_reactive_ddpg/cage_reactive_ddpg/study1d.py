@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 from cage_sim.env import Study1DEnv
+from cage_sim.vec_env import RngStates
 
 STUDY1D = "study1d"
 
 
-class Study1DVecEnv:
+class Study1DVecEnv(RngStates):
     """``n_envs`` Study1DEnv stepped together, same-step autoreset like ``CageNavVecEnv``."""
 
     def __init__(self, n_envs: int, seed: int = 0):
@@ -38,6 +39,9 @@ class Study1DVecEnv:
         if final_obs:
             infos["final_obs"] = final_obs
         return obs, rew, term, trunc, infos
+
+    def close(self) -> None:
+        """Nothing to release (the trainer closes every kind of vector env)."""
 
 
 def evaluate_1d(policy, episodes: int, seed: int) -> dict:

@@ -29,6 +29,7 @@ from typing import Any, Callable
 import numpy as np
 import torch
 from cage_sim.controller import ArcController
+from cage_sim.process_vec_env import ProcessVecEnv
 from cage_sim.vec_env import CageNavVecEnv, finished
 from tqdm import tqdm
 
@@ -81,10 +82,11 @@ def read_checkpoint(path: str | Path) -> dict:
     return state
 
 
-def _reset(envs) -> np.ndarray:
-    """gymnasium's ``(obs, infos)`` or a bare observation array (Study1DVecEnv)."""
+def _reset(envs) -> tuple[np.ndarray, np.ndarray | None]:
+    """First observations from gymnasium's ``(obs, infos)`` or a bare array (Study1DVecEnv), and the
+    expert's labels for them when env workers compute them (``ProcessVecEnv``)."""
     out = envs.reset()
-    return out[0] if isinstance(out, tuple) else out
+    return (out[0], out[1].get("labels")) if isinstance(out, tuple) else (out, None)
 
 
 def _success(infos: dict, i: int) -> bool:
@@ -119,9 +121,16 @@ class Trainer:
         self.env_cfg = cfg.env_config()
         self.wp_fn = waypoint_fn(cfg.planner)
         self.replay = None
+        # Expert guidance: the classical baseline reads the same observation (drift from its velocity
+        # part) and labels every transition; a share of the episodes is flown by it (demonstrations).
+        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle) if cfg.expert == "baseline" else None
         if cfg.scenario == STUDY1D:
             self.envs = Study1DVecEnv(cfg.n_envs, seed=cfg.seed)
             obs_dim = 1
+        elif cfg.env_workers > 1:   # the envs and the expert's rollouts in worker processes (labels come back)
+            self.envs = ProcessVecEnv(cfg.n_envs, cfg.env_workers, sampler(cfg.scenario), self.env_cfg, self.wp_fn,
+                                      seed=cfg.seed, labeller=self.expert)
+            obs_dim = int(self.envs.single_observation_space.shape[0])
         else:
             self.replay = HardCaseReplay(cfg.replay_fraction, cfg.replay_max_tries, seed=cfg.seed) \
                 if cfg.replay_fraction > 0 else None
@@ -129,9 +138,6 @@ class Trainer:
                                       replay=self.replay)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         self.agent = DDPGAgent(cfg, obs_dim)
-        # Expert guidance: the classical baseline reads the same observation (drift from its velocity
-        # part) and labels every transition; a share of the episodes is flown by it (demonstrations).
-        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle) if cfg.expert == "baseline" else None
         self.demo = np.zeros(cfg.n_envs, dtype=bool)
         self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim)
         self.folder = NStepFolder(cfg.n_envs, cfg.n_step, cfg.gamma)
@@ -201,7 +207,7 @@ class Trainer:
         log = csv.DictWriter(csv_file, CSV_FIELDS, extrasaction="ignore")
         log.writeheader()
         log.writerows(self.rows)
-        obs = _reset(self.envs)
+        obs, labels = _reset(self.envs)
         ep_ret, ep_len = np.zeros(c.n_envs), np.zeros(c.n_envs, int)
         recent = deque(self.rows[-c.moving_average:], maxlen=c.moving_average)
         pending = 0.0
@@ -217,9 +223,10 @@ class Trainer:
             self.draw_demo(i)
         while self.progress_fraction() < 1.0:
             self.agent.observe(obs)
-            expert = self.expert.act(obs) if self.expert is not None else None
+            expert = labels if labels is not None else self.expert.act(obs) if self.expert is not None else None
             act = self.behaviour(obs, expert)
             nxt, rew, term, trunc, infos = self.envs.step(act)
+            labels = infos.get("labels")          # the expert's actions on nxt, from the env workers
             real_next = nxt.copy()
             for i, o in finished(infos):
                 real_next[i] = o
@@ -287,6 +294,7 @@ class Trainer:
         if writer:
             self._log_hparams(writer, final)
             writer.close()
+        self.envs.close()       # env worker processes end here
         return final
 
     def _next(self, every: int) -> int:
@@ -365,7 +373,7 @@ class Trainer:
                               "seconds": self.train_seconds, "best": float(self.best)},
                  "evals": _plain(self.evals),
                  "rng": self.rng.bit_generator.state,
-                 "env_rngs": [r.bit_generator.state for r in self.envs.rngs],
+                 "env_rngs": self.envs.rng_states(),
                  "torch_rng": torch.get_rng_state()}
         tmp = self.out / "checkpoint.pt.tmp"
         torch.save(state, tmp)
@@ -383,8 +391,7 @@ class Trainer:
             self.step, self.episodes, self.updates = int(pr["step"]), int(pr["episodes"]), int(pr["updates"])
             self.train_seconds, self.best = float(pr["seconds"]), float(pr["best"])
             self.rng.bit_generator.state = s["rng"]
-            for r, st in zip(self.envs.rngs, s["env_rngs"]):
-                r.bit_generator.state = st
+            self.envs.set_rng_states(s["env_rngs"])
             torch.set_rng_state(s["torch_rng"])
         except (KeyError, RuntimeError, ValueError, TypeError) as err:
             raise CheckpointError(f"{p}: does not fit this trainer and config ({_one_line(err)})") from None

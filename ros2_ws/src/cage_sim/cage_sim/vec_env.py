@@ -40,7 +40,23 @@ from .scenarios import scenario_sampler
 TERMINAL = ("goal", "collision", "wander")
 
 
-class CageNavVecEnv(VectorEnv):
+class RngStates:
+    """Checkpointing of per-env generators ``self.rngs`` (what the trainer saves and restores)."""
+
+    rngs: list[np.random.Generator]
+
+    def rng_states(self) -> list[dict]:
+        """Every env's scenario generator state, in env order."""
+        return [r.bit_generator.state for r in self.rngs]
+
+    def set_rng_states(self, states: Sequence[dict]) -> None:
+        if len(states) != len(self.rngs):
+            raise ValueError(f"expected {len(self.rngs)} generator states, got {len(states)}")
+        for r, st in zip(self.rngs, states):
+            r.bit_generator.state = st
+
+
+class CageNavVecEnv(RngStates, VectorEnv):
     """``n_envs`` missions stepped together; one batched sonar call per step (see the module doc)."""
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
@@ -79,12 +95,12 @@ class CageNavVecEnv(VectorEnv):
         if isinstance(seed, (list, tuple, np.ndarray)):
             if len(seed) != self.num_envs:
                 raise ValueError(f"seed: expected {self.num_envs} seeds, got {len(seed)}")
-            self.rngs = [np.random.default_rng(int(s)) for s in seed]
+            self.rngs = [np.random.default_rng(s if isinstance(s, np.random.SeedSequence) else int(s)) for s in seed]
         else:
             seq = np.random.SeedSequence(None if seed is None else int(seed))
             self.rngs = [np.random.default_rng(s) for s in seq.spawn(self.num_envs)]
 
-    def reset(self, *, seed: int | Sequence[int] | None = None, options: dict | None = None):
+    def reset(self, *, seed: "int | Sequence[int | np.random.SeedSequence] | None" = None, options: dict | None = None):
         """Start a fresh mission in every env; ``seed`` re-seeds their scenario generators."""
         if seed is not None:
             self._seed(seed)

@@ -1,0 +1,184 @@
+"""``ProcessVecEnv``: a ``CageNavVecEnv`` split over worker processes, so training uses every core.
+
+Why: one trainer process steps its missions and then updates its networks, one core at a time;
+on a 2-core machine the other core idles. Here each worker process owns a ``CageNavVecEnv`` with
+its share of the envs (missions, sonar heads, memories) and, optionally, a ``labeller`` (the
+expert: a ``Policy`` whose actions on each returned observation come back with it, so the expert's
+rollouts also run in the workers). The parent sends actions, the workers step at the same time,
+the parent merges their answers in env order: the same gymnasium vector API (SAME_STEP autoreset,
+``final_obs`` / ``final_info``) as ``CageNavVecEnv``.
+
+Seeding: env ``i`` draws its scenarios from the ``i``-th child of ``SeedSequence(seed)``, as in one
+``CageNavVecEnv``; each worker's sonar noise comes from its first env's generator (in one process
+it is env 0's), so a run is reproducible for a given number of workers, and runs with different
+numbers of workers differ (noise and the scenarios of each worker's first env).
+
+Workers are forked (Linux; they inherit the scenario sampler and route function, closures that
+cannot be pickled); they are daemons, so they end with the parent, and ``close()`` ends them early.
+Hard-case replay (a pool shared by all envs) is not supported across processes.
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+from typing import Any, Callable, Sequence
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .vec_env import CageNavVecEnv
+
+
+def env_info(infos: dict[str, Any], j: int) -> dict[str, Any]:
+    """Env ``j``'s part of a gymnasium vector ``infos`` (the keys its ``_key`` masks set for it)."""
+    out: dict[str, Any] = {}
+    for k, v in infos.items():
+        if k.startswith("_"):
+            continue
+        mask = infos.get(f"_{k}")
+        if mask is not None and not mask[j]:
+            continue
+        out[k] = env_info(v, j) if isinstance(v, dict) else v[j]
+    return out
+
+
+def _worker(conn, make: Callable[[], CageNavVecEnv], labeller) -> None:
+    """One worker's loop: build its env, then answer commands until ``close`` (or the pipe ends)."""
+    env = make()
+
+    def labels(obs):
+        return None if labeller is None else np.asarray(labeller.act(obs), dtype=np.float32)
+
+    try:
+        while True:
+            cmd, arg = conn.recv()
+            if cmd == "reset":
+                obs, infos = env.reset(seed=arg)
+                conn.send((obs, infos, labels(obs)))
+            elif cmd == "step":
+                obs, rew, term, trunc, infos = env.step(arg)
+                conn.send((obs, rew, term, trunc, infos, labels(obs)))
+            elif cmd == "rng_states":
+                conn.send(env.rng_states())
+            elif cmd == "set_rng_states":
+                env.set_rng_states(arg)
+                conn.send(None)
+            elif cmd == "close":
+                break
+    except (EOFError, KeyboardInterrupt):
+        pass
+    finally:
+        conn.close()
+
+
+class ProcessVecEnv(VectorEnv):
+    """``n_envs`` missions over ``n_workers`` forked processes (``CageNavVecEnv``'s arguments, less
+    ``replay``, plus ``labeller``: a Policy run in the workers on every returned observation, its
+    actions in ``infos["labels"]`` as a (n_envs, 1) array)."""
+
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+
+    def __init__(self, n_envs: int, n_workers: int, scenario: Any = "cage", config=None, waypoint_fn=None,
+                 seed: int = 0, labeller=None):
+        n_envs, n_workers = int(n_envs), int(n_workers)
+        if not 1 <= n_workers <= n_envs:
+            raise ValueError(f"env_workers: must be between 1 and n_envs ({n_envs}), got {n_workers}")
+        if "fork" not in mp.get_all_start_methods():
+            raise RuntimeError("env_workers > 1 needs the 'fork' start method (Linux)")
+        self.num_envs = n_envs
+        self.slices = [s for s in np.array_split(np.arange(n_envs), n_workers)]
+        ctx = mp.get_context("fork")
+        self._conns, self._procs = [], []
+        probe = CageNavVecEnv(1, scenario, config, waypoint_fn, seed=seed)      # spaces, without a worker
+        self.config = probe.config
+        self.single_observation_space, self.single_action_space = probe.single_observation_space, \
+            probe.single_action_space
+        self.observation_space = batch_space(self.single_observation_space, n_envs)
+        self.action_space = batch_space(self.single_action_space, n_envs)
+        self.render_mode = None
+        self.labels_on = labeller is not None
+        seeds = self._seeds(seed)
+        for idx in self.slices:
+            parent, child = ctx.Pipe()
+            part = [seeds[i] for i in idx]
+
+            def make(n=len(idx), part=part):
+                return CageNavVecEnv(n, scenario, config, waypoint_fn, seed=part)
+            p = ctx.Process(target=_worker, args=(child, make, labeller), daemon=True)
+            p.start()
+            child.close()
+            self._conns.append(parent)
+            self._procs.append(p)
+        self.closed = False
+
+    @property
+    def n_envs(self) -> int:
+        return self.num_envs
+
+    def _seeds(self, seed: int | None) -> list[np.random.SeedSequence]:
+        return np.random.SeedSequence(None if seed is None else int(seed)).spawn(self.num_envs)
+
+    def _ask(self, cmds: Sequence[tuple[str, Any]]) -> list:
+        try:
+            for conn, cmd in zip(self._conns, cmds):
+                conn.send(cmd)
+            return [conn.recv() for conn in self._conns]
+        except (EOFError, OSError):       # BrokenPipeError, ConnectionResetError: the worker is gone
+            raise RuntimeError("an env worker process ended unexpectedly (see its traceback above)") from None
+
+    def _merge(self, parts: list[dict], labels: list) -> dict[str, Any]:
+        """The workers' vector infos as one: keys every env of every worker has (``outcome``,
+        ``steps``, ...) concatenated, dtypes kept; the others (``final_obs``, ``final_info``) env by
+        env with gymnasium's ``_add_info``, as one ``CageNavVecEnv`` builds them."""
+        infos: dict[str, Any] = {}
+        full = [k for k in parts[0] if not k.startswith("_") and not isinstance(parts[0][k], dict)
+                and all(k in p and np.all(p.get(f"_{k}", True)) for p in parts)]
+        for k in full:
+            infos[k] = np.concatenate([p[k] for p in parts])
+            if f"_{k}" in parts[0]:
+                infos[f"_{k}"] = np.ones(self.num_envs, dtype=bool)
+        skip = set(full) | {f"_{k}" for k in full}
+        for idx, part in zip(self.slices, parts):
+            rest = {k: v for k, v in part.items() if k not in skip}
+            for j, i in enumerate(idx):
+                infos = self._add_info(infos, env_info(rest, j), int(i))
+        if self.labels_on:
+            infos["labels"] = np.concatenate(labels)
+        return infos
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        seeds = self._seeds(seed) if seed is not None else None
+        out = self._ask([("reset", None if seeds is None else [seeds[i] for i in idx]) for idx in self.slices])
+        obs = np.concatenate([o[0] for o in out])
+        return obs, self._merge([o[1] for o in out], [o[2] for o in out])
+
+    def step(self, actions: np.ndarray):
+        a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs)
+        out = self._ask([("step", a[idx]) for idx in self.slices])
+        obs, rew, term, trunc = (np.concatenate([o[k] for o in out]) for k in range(4))
+        return obs, rew, term, trunc, self._merge([o[4] for o in out], [o[5] for o in out])
+
+    def rng_states(self) -> list[dict]:
+        """Every env's scenario generator state, in env order (the trainer's checkpoint)."""
+        return [s for part in self._ask([("rng_states", None)] * len(self._conns)) for s in part]
+
+    def set_rng_states(self, states: Sequence[dict]) -> None:
+        if len(states) != self.num_envs:
+            raise ValueError(f"expected {self.num_envs} generator states, got {len(states)}")
+        self._ask([("set_rng_states", [states[i] for i in idx]) for idx in self.slices])
+
+    def close(self, **kwargs: Any) -> None:
+        if self.closed:
+            return
+        for conn in self._conns:
+            try:
+                conn.send(("close", None))
+            except (BrokenPipeError, OSError):
+                pass
+        for p in self._procs:
+            p.join(timeout=5)
+            if p.is_alive():
+                p.terminate()
+        for conn in self._conns:
+            conn.close()
+        self.closed = True
