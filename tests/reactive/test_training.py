@@ -57,20 +57,25 @@ def test_same_seed_gives_identical_weights(tmp_path, tiny_overrides):
     assert (a.out / "episodes.csv").is_file() and (a.out / "learning_curve.png").is_file()
 
 
-def test_env_workers_train_the_same_weights_as_one_process(tmp_path, tiny_overrides):
-    """Two env worker processes (the envs and the expert's labels there) give bit-identical weights
-    to one process when the sonar draws no noise (then only the scenario generators draw, one per env,
-    the same in both); the checkpoint holds every env's generator."""
-    over = {**tiny_overrides, "scenario": "cage", "total_steps": 800, "n_envs": 4, "prefill_steps": 200,
-            "eval_episodes": 3, "expert": "baseline", "expert_fraction": 0.5, "bc_weight": 1.0}
+def test_env_workers_fill_the_same_buffer_and_learn_beside_the_envs(tmp_path, tiny_overrides):
+    """Two env worker processes (the envs and the expert's labels there): while the actions are the
+    prefill's random ones, the buffer (labels included) and the episodes are bit-identical to one
+    process when the sonar draws no noise; with updates, they run while the workers fly a step (the
+    same number, less one step's: each step learns from the buffer before its own transitions), and
+    the checkpoint holds every env's generator."""
+    over = {**tiny_overrides, "scenario": "cage", "total_steps": 480, "n_envs": 4, "prefill_steps": 480,
+            "eval_episodes": 0, "expert": "baseline", "expert_fraction": 0.5, "bc_weight": 1.0}
     a, _ = _train(tmp_path, "one", over)
     b, _ = _train(tmp_path, "two", {**over, "env_workers": 2})
-    wa, wb = load_file(str(a.out / "policy.safetensors")), load_file(str(b.out / "policy.safetensors"))
-    for k in wa:
-        assert (wa[k] == wb[k]).all(), k
-    assert a.rows == [{**r, "seconds": ra["seconds"]} for r, ra in zip(b.rows, a.rows)] and a.episodes > 10
+    sa, sb = a.buffer.state(), b.buffer.state()
+    assert a.buffer.size == b.buffer.size == 480 and all(np.array_equal(sa[k], sb[k], equal_nan=True) for k in sa)
+    assert [{**r, "seconds": 0} for r in a.rows] == [{**r, "seconds": 0} for r in b.rows] and a.episodes > 5
     assert len(torch.load(b.out / "checkpoint.pt", weights_only=True)["env_rngs"]) == 4
     assert not any(p.is_alive() for p in b.envs._procs)            # run() ended its workers
+    c, _ = _train(tmp_path, "learn", {**over, "env_workers": 2, "total_steps": 800, "prefill_steps": 200})
+    d, _ = _train(tmp_path, "learn1", {**over, "total_steps": 800, "prefill_steps": 200})
+    assert 0 <= d.updates - c.updates <= 4 and c.updates > 500   # the first step's updates wait for a batch
+    assert all(torch.isfinite(v).all() for v in load_file(str(c.out / "policy.safetensors")).values())
     with pytest.raises(ValueError, match="env_workers"):
         config_mod.build("study", overrides={**over, "env_workers": 2, "replay_fraction": 0.2})
 

@@ -49,6 +49,20 @@ def test_workers_answer_as_one_vector_env(pair):
     assert ended >= 5                          # random actions end missions: the autoreset path ran
 
 
+def test_step_async_then_wait_is_a_step(pair):
+    one, two, _ = pair
+    one.reset()
+    two.reset()
+    a = np.full((5, 1), 0.4)
+    two.step_async(a)
+    with pytest.raises(RuntimeError, match="in flight"):
+        two.rng_states()
+    r2 = two.step_wait()
+    assert all(np.array_equal(x, y) for x, y in zip(one.step(a)[:4], r2[:4]))
+    with pytest.raises(RuntimeError, match="without step_async"):
+        two.step_wait()
+
+
 def test_generator_states_round_trip_and_reseeding(pair):
     one, two, _ = pair
     states = two.rng_states()

@@ -39,7 +39,7 @@ class TrainConfig:
     episodes: int = 10_000               # the study's 10,000 episodes (used when total_steps == 0)
     n_envs: int = 1                      # missions stepped together (CageNavVecEnv)
     threads: int = 1                     # torch intra-op threads
-    env_workers: int = 1                 # processes stepping the envs (and the expert); 2 on 2 cores
+    env_workers: int = 1                 # > 1: envs + expert in that many worker processes, updates beside them
     # --- DDPG (the study's values) ------------------------------------------------------
     actor_hidden: tuple = (400, 300)
     critic_hidden: tuple = (400, 300)

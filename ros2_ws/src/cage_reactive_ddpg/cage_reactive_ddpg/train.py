@@ -221,11 +221,19 @@ class Trainer:
         fps_mark = (self.step, time.time())
         for i in range(c.n_envs):
             self.draw_demo(i)
+        # With env worker processes, the updates of a step run while the workers fly it (the buffer
+        # then holds every transition up to the step before: one step of 16 later than in one process).
+        overlap = isinstance(self.envs, ProcessVecEnv)
         while self.progress_fraction() < 1.0:
             self.agent.observe(obs)
             expert = labels if labels is not None else self.expert.act(obs) if self.expert is not None else None
             act = self.behaviour(obs, expert)
-            nxt, rew, term, trunc, infos = self.envs.step(act)
+            if overlap:     # the workers fly this step while the networks learn from the buffer so far
+                self.envs.step_async(act)
+                pending, info = self._learn(pending, info)
+                nxt, rew, term, trunc, infos = self.envs.step_wait()
+            else:
+                nxt, rew, term, trunc, infos = self.envs.step(act)
             labels = infos.get("labels")          # the expert's actions on nxt, from the env workers
             real_next = nxt.copy()
             for i, o in finished(infos):
@@ -259,12 +267,8 @@ class Trainer:
             self.step += c.n_envs
             if c.total_steps > 0:
                 bar.update(c.n_envs)
-            if not self.prefilling() and self.buffer.size >= c.batch_size:
-                pending += c.updates_per_step * c.n_envs
-                while pending >= 1.0:
-                    info = self.agent.update(self.buffer.sample(self.rng, c.batch_size), self.bc_weight())
-                    self.updates += 1
-                    pending -= 1.0
+            if not overlap:
+                pending, info = self._learn(pending, info)
             if self.step >= next_log:
                 now = time.time()
                 fps = (self.step - fps_mark[0]) / max(now - fps_mark[1], 1e-9)
@@ -296,6 +300,18 @@ class Trainer:
             writer.close()
         self.envs.close()       # env worker processes end here
         return final
+
+    def _learn(self, pending: float, info: dict) -> tuple[float, dict]:
+        """The gradient updates this env step earns (``updates_per_step`` per env step, once the
+        prefill is over and the buffer holds a batch); ``pending`` carries the fraction left over."""
+        c = self.cfg
+        if not self.prefilling() and self.buffer.size >= c.batch_size:
+            pending += c.updates_per_step * c.n_envs
+            while pending >= 1.0:
+                info = self.agent.update(self.buffer.sample(self.rng, c.batch_size), self.bc_weight())
+                self.updates += 1
+                pending -= 1.0
+        return pending, info
 
     def _next(self, every: int) -> int:
         return (self.step // every + 1) * every if every > 0 else 0

@@ -6,7 +6,9 @@ its share of the envs (missions, sonar heads, memories) and, optionally, a ``lab
 expert: a ``Policy`` whose actions on each returned observation come back with it, so the expert's
 rollouts also run in the workers). The parent sends actions, the workers step at the same time,
 the parent merges their answers in env order: the same gymnasium vector API (SAME_STEP autoreset,
-``final_obs`` / ``final_info``) as ``CageNavVecEnv``.
+``final_obs`` / ``final_info``) as ``CageNavVecEnv``. ``step_async(actions)`` / ``step_wait()``
+split a step (gymnasium's ``AsyncVectorEnv`` names) so the caller can work while the workers fly
+it: the trainer runs that step's network updates there.
 
 Seeding: env ``i`` draws its scenarios from the ``i``-th child of ``SeedSequence(seed)``, as in one
 ``CageNavVecEnv``; each worker's sonar noise comes from its first env's generator (in one process
@@ -97,6 +99,7 @@ class ProcessVecEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, n_envs)
         self.render_mode = None
         self.labels_on = labeller is not None
+        self._waiting = False
         seeds = self._seeds(seed)
         for idx in self.slices:
             parent, child = ctx.Pipe()
@@ -118,13 +121,24 @@ class ProcessVecEnv(VectorEnv):
     def _seeds(self, seed: int | None) -> list[np.random.SeedSequence]:
         return np.random.SeedSequence(None if seed is None else int(seed)).spawn(self.num_envs)
 
-    def _ask(self, cmds: Sequence[tuple[str, Any]]) -> list:
+    def _send(self, cmds: Sequence[tuple[str, Any]]) -> None:
         try:
             for conn, cmd in zip(self._conns, cmds):
                 conn.send(cmd)
-            return [conn.recv() for conn in self._conns]
-        except (EOFError, OSError):       # BrokenPipeError, ConnectionResetError: the worker is gone
+        except OSError:                    # BrokenPipeError: the worker is gone
             raise RuntimeError("an env worker process ended unexpectedly (see its traceback above)") from None
+
+    def _receive(self) -> list:
+        try:
+            return [conn.recv() for conn in self._conns]
+        except (EOFError, OSError):
+            raise RuntimeError("an env worker process ended unexpectedly (see its traceback above)") from None
+
+    def _ask(self, cmds: Sequence[tuple[str, Any]]) -> list:
+        if self._waiting:
+            raise RuntimeError("step_wait() first: a step is in flight")
+        self._send(cmds)
+        return self._receive()
 
     def _merge(self, parts: list[dict], labels: list) -> dict[str, Any]:
         """The workers' vector infos as one: keys every env of every worker has (``outcome``,
@@ -153,10 +167,28 @@ class ProcessVecEnv(VectorEnv):
         return obs, self._merge([o[1] for o in out], [o[2] for o in out])
 
     def step(self, actions: np.ndarray):
+        self.step_async(actions)
+        return self.step_wait()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        """Send this step's actions and return at once: the workers fly it while the caller does
+        something else (the trainer: its network updates); ``step_wait()`` collects the answer."""
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs)
-        out = self._ask([("step", a[idx]) for idx in self.slices])
+        self._ask_async([("step", a[idx]) for idx in self.slices])
+
+    def step_wait(self):
+        if not self._waiting:
+            raise RuntimeError("step_wait() without step_async()")
+        self._waiting = False
+        out = self._receive()
         obs, rew, term, trunc = (np.concatenate([o[k] for o in out]) for k in range(4))
         return obs, rew, term, trunc, self._merge([o[4] for o in out], [o[5] for o in out])
+
+    def _ask_async(self, cmds: Sequence[tuple[str, Any]]) -> None:
+        if self._waiting:
+            raise RuntimeError("step_wait() first: a step is in flight")
+        self._send(cmds)
+        self._waiting = True
 
     def rng_states(self) -> list[dict]:
         """Every env's scenario generator state, in env order (the trainer's checkpoint)."""
