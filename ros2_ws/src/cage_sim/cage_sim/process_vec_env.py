@@ -28,7 +28,11 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from .env import ACTION_SPACE, observation_space
+from .mission import EnvConfig
 from .vec_env import CageNavVecEnv
+
+WORKER_GONE = "an env worker process ended unexpectedly (see its traceback above)"
 
 
 def env_info(infos: dict[str, Any], j: int) -> dict[str, Any]:
@@ -88,13 +92,11 @@ class ProcessVecEnv(VectorEnv):
         if "fork" not in mp.get_all_start_methods():
             raise RuntimeError("env_workers > 1 needs the 'fork' start method (Linux)")
         self.num_envs = n_envs
-        self.slices = [s for s in np.array_split(np.arange(n_envs), n_workers)]
+        self.slices = np.array_split(np.arange(n_envs), n_workers)
         ctx = mp.get_context("fork")
         self._conns, self._procs = [], []
-        probe = CageNavVecEnv(1, scenario, config, waypoint_fn, seed=seed)      # spaces, without a worker
-        self.config = probe.config
-        self.single_observation_space, self.single_action_space = probe.single_observation_space, \
-            probe.single_action_space
+        self.config = config or EnvConfig()
+        self.single_observation_space, self.single_action_space = observation_space(self.config), ACTION_SPACE
         self.observation_space = batch_space(self.single_observation_space, n_envs)
         self.action_space = batch_space(self.single_action_space, n_envs)
         self.render_mode = None
@@ -106,7 +108,7 @@ class ProcessVecEnv(VectorEnv):
             part = [seeds[i] for i in idx]
 
             def make(n=len(idx), part=part):
-                return CageNavVecEnv(n, scenario, config, waypoint_fn, seed=part)
+                return CageNavVecEnv(n, scenario, self.config, waypoint_fn, seed=part)
             p = ctx.Process(target=_worker, args=(child, make, labeller), daemon=True)
             p.start()
             child.close()
@@ -126,18 +128,23 @@ class ProcessVecEnv(VectorEnv):
             for conn, cmd in zip(self._conns, cmds):
                 conn.send(cmd)
         except OSError:                    # BrokenPipeError: the worker is gone
-            raise RuntimeError("an env worker process ended unexpectedly (see its traceback above)") from None
+            raise RuntimeError(WORKER_GONE) from None
 
     def _receive(self) -> list:
         try:
             return [conn.recv() for conn in self._conns]
         except (EOFError, OSError):
-            raise RuntimeError("an env worker process ended unexpectedly (see its traceback above)") from None
+            raise RuntimeError(WORKER_GONE) from None
 
-    def _ask(self, cmds: Sequence[tuple[str, Any]]) -> list:
+    def _ask_async(self, cmds: Sequence[tuple[str, Any]]) -> None:
         if self._waiting:
             raise RuntimeError("step_wait() first: a step is in flight")
         self._send(cmds)
+        self._waiting = True
+
+    def _ask(self, cmds: Sequence[tuple[str, Any]]) -> list:
+        self._ask_async(cmds)
+        self._waiting = False
         return self._receive()
 
     def _merge(self, parts: list[dict], labels: list) -> dict[str, Any]:
@@ -183,12 +190,6 @@ class ProcessVecEnv(VectorEnv):
         out = self._receive()
         obs, rew, term, trunc = (np.concatenate([o[k] for o in out]) for k in range(4))
         return obs, rew, term, trunc, self._merge([o[4] for o in out], [o[5] for o in out])
-
-    def _ask_async(self, cmds: Sequence[tuple[str, Any]]) -> None:
-        if self._waiting:
-            raise RuntimeError("step_wait() first: a step is in flight")
-        self._send(cmds)
-        self._waiting = True
 
     def rng_states(self) -> list[dict]:
         """Every env's scenario generator state, in env order (the trainer's checkpoint)."""
