@@ -105,40 +105,39 @@ def test_moving_school_baseline_and_shield_extrapolate_its_motion():
     assert run_one(SafetyShield(Constant(0.0)), sc, perception=True).outcome != "collision"
 
 
+def scan_points(world: World, x: float, t: float, yaw: float = 0.0) -> np.ndarray:
+    """Body-frame returns within 15 m of the study sonar on a vehicle at (x, 0, yaw)."""
+    from cage_sim.sonar import SonarModel
+    layout = ArcController().layout
+    angles = np.arange(layout.n_beams) * (2 * np.pi / layout.n_beams)
+    r = SonarModel().scan(world, x, 0.0, yaw, t)
+    seen = np.isfinite(r) & (r < 15.0)
+    return np.stack([r[seen] * np.cos(angles[seen]), r[seen] * np.sin(angles[seen])], axis=1)
+
+
 def test_return_motion_static_wall_is_still_and_a_school_moves():
     from cage_sim.perception import ReturnMotion
-    from cage_sim.sonar import SonarModel
-    sonar, layout = SonarModel(), ArcController().layout
-    angles = np.arange(layout.n_beams) * (2 * np.pi / layout.n_beams)
     wall = World(30.0, (), tuple(Obstacle("square", x, 4.0, 2.0) for x in (0.0, 2.0, 4.0, 6.0)))
     school = World(30.0, (), (Obstacle("circle", 6.0, -2.0, 1.0, 0.0, 4.0, 40.0),))
 
-    def points(world, x, t):
-        r = sonar.scan(world, x, 0.0, 0.0, t)
-        seen = np.isfinite(r) & (r < 15.0)
-        return np.stack([r[seen] * np.cos(angles[seen]), r[seen] * np.sin(angles[seen])], axis=1)
-
     mo = ReturnMotion()
-    mo.update(points(wall, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
-    assert np.all(mo.update(points(wall, 1.0, 1.0), (1.0, 0.0, 0.0), 1.0) == 0.0)   # the vehicle moved, not the wall
+    mo.update(scan_points(wall, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
+    assert np.all(mo.update(scan_points(wall, 1.0, 1.0), (1.0, 0.0, 0.0), 1.0) == 0.0)   # the vehicle moved, not the wall
     mo = ReturnMotion()
-    mo.update(points(school, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
-    first = mo.update(points(school, 1.0, 1.0), (1.0, 0.0, 0.0), 1.0)
+    mo.update(scan_points(school, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
+    first = mo.update(scan_points(school, 1.0, 1.0), (1.0, 0.0, 0.0), 1.0)
     assert len(first) and np.all(first == 0.0)        # one displacement could be a static return seen anew
-    assert np.all(mo.update(points(school, 2.0, 2.0), (2.0, 0.0, 0.0), 2.0)[:, 1] > 0.3)   # two agree: it moves
-    v = mo.update(points(school, 3.0, 3.0), (3.0, 0.0, 0.0), 3.0)
+    assert np.all(mo.update(scan_points(school, 2.0, 2.0), (2.0, 0.0, 0.0), 2.0)[:, 1] > 0.3)   # two agree: it moves
+    v = mo.update(scan_points(school, 3.0, 3.0), (3.0, 0.0, 0.0), 3.0)
     true_vy = 4.0 * 2 * np.pi / 40.0 * np.cos(2 * np.pi * 2.5 / 40.0)            # ~0.58 m/s to the left
     assert len(v) and np.all(np.abs(v[:, 1] - true_vy) < 0.2) and np.all(np.abs(v[:, 0]) < 0.2)
-    assert np.all(ReturnMotion(agree=0.0).update(points(school, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0) == 0.0)
+    assert np.all(ReturnMotion(agree=0.0).update(scan_points(school, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0) == 0.0)
 
 
 def test_return_motion_gives_static_obstacles_passed_by_far_fewer_velocities():
     # Small posts beside a straight run: each is hit by one or two beams at other points from scan
     # to scan, so its centroid seems to move; the agreement check drops most of those velocities.
     from cage_sim.perception import ReturnMotion
-    from cage_sim.sonar import SonarModel
-    sonar, layout = SonarModel(), ArcController().layout
-    angles = np.arange(layout.n_beams) * (2 * np.pi / layout.n_beams)
     rng = np.random.default_rng(3)
     posts = tuple(Obstacle("square", float(x), float(y), 0.3) for x, y in
                   zip(rng.uniform(0.0, 30.0, 25), rng.uniform(-8.0, 8.0, 25)) if abs(y) > 1.5)
@@ -148,9 +147,7 @@ def test_return_motion_gives_static_obstacles_passed_by_far_fewer_velocities():
         n = 0
         for k in range(30):
             x, yaw = -10.0 + k, 0.1 * math.sin(0.3 * k)
-            r = sonar.scan(world, x, 0.0, yaw, float(k))
-            seen = np.isfinite(r) & (r < 15.0)
-            pts = np.stack([r[seen] * np.cos(angles[seen]), r[seen] * np.sin(angles[seen])], axis=1)
+            pts = scan_points(world, x, float(k), yaw)
             n += int((np.abs(mo.update(pts, (x, 0.0, yaw), float(k))) > 0).any(axis=1).sum())
         return n
 

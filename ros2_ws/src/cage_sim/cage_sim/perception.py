@@ -125,8 +125,7 @@ class ReturnMotion:
                 v = (c - prev_cents[j]) / dt
                 if self.min_speed <= float(np.hypot(*v)) <= self.max_speed:
                     raw[k] = v
-                    if self.agree > 0 and not (prev_raw is not None and j < len(prev_raw)
-                                               and np.hypot(*(v - prev_raw[j])) <= self.agree):
+                    if self.agree > 0 and not np.hypot(*(v - prev_raw[j])) <= self.agree:   # nan: had none
                         continue
                     vel[labels == k] = to_body(v, pose[2])
         return vel
