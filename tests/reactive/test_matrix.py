@@ -31,7 +31,7 @@ def test_bad_cells_are_refused_naming_the_key():
 
 def test_cli_tiny_matrix_writes_tables_and_figure(tmp_path, capsys):
     prefix, png = tmp_path / "m", tmp_path / "m.png"
-    assert main(["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--policy", "baseline",
+    assert main(["--matrix", "tiny", "--episodes", "2", "--seed", "5",
                  "--drivers", "baseline", "--out", str(prefix), "--plot", str(png), "--quiet"]) == 0
     rows = json.loads(prefix.with_suffix(".json").read_text())["rows"]
     assert [r["cell"] for r in rows] == [0, 1] and all(r["episodes"] == 2 for r in rows)
@@ -73,3 +73,21 @@ def test_cli_cells_run_in_parts_merge_into_the_whole_matrix(tmp_path):
     load = lambda p: json.loads(p.with_suffix(".json").read_text())["rows"]  # noqa: E731
     assert load(merged) == load(whole)
     assert main(args + ["--cells", "0-5"]) == 2          # outside the matrix: one line, no run
+
+
+def test_the_baseline_reads_the_policys_observation_whichever_drivers_run(tmp_path):
+    """A matrix run in parts must compare like with like: the baseline run alone reads the shipped
+    policy's scan, memory and velocity as it does beside the policy (before session 25 it fell back
+    to the study's v1 scan alone), and rows read through another observation are not reused."""
+    args = ["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--cells", "1", "--quiet"]
+    alone, beside, v1 = (tmp_path / n for n in ("alone", "beside", "v1"))
+    assert main(args + ["--drivers", "baseline", "--out", str(alone)]) == 0
+    assert main(args + ["--drivers", "raw,baseline", "--out", str(beside)]) == 0
+    load = lambda p: json.loads(p.with_suffix(".json").read_text())  # noqa: E731
+    a, b = load(alone), load(beside)
+    assert a["observation"] == b["observation"] and a["observation"]["name"] == "cage-obs-v2"
+    assert a["observation"]["memory_bins"] > 0
+    assert a["rows"] == [r for r in b["rows"] if r["driver"] == "baseline"]
+    assert main(args + ["--policy", "baseline", "--drivers", "baseline", "--out", str(v1)]) == 0
+    assert load(v1)["observation"]["name"] == "cage-obs-v1"
+    assert main(args + ["--drivers", "raw,baseline", "--reuse", str(v1.with_suffix(".json"))]) == 2

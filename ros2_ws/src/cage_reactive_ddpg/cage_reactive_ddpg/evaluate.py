@@ -275,14 +275,16 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str) -> list[dict]:
-    """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked."""
+def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observation: dict) -> list[dict]:
+    """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked.
+    The observation layout is checked where the file records it (files before session 25 do not)."""
     rows: list[dict] = []
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
         for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                          ("motion", motion), ("sensor", sensor), ("replan", a.replan)):
-            if old.get(key, "off") != mine:
+                          ("motion", motion), ("sensor", sensor), ("replan", a.replan),
+                          ("observation", observation)):
+            if old.get(key, "off" if key != "observation" else mine) != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
         have = {(r["cell"], r["driver"]) for r in rows}
         rows += [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
@@ -302,11 +304,16 @@ def matrix_main(a: argparse.Namespace) -> int:
         for d in wanted:
             if d != "baseline":
                 drivers[d], _, meta = load_driver(a.policy, shield=(d == "shield"), sensor=a.sensor)
+        if meta is None and a.policy != "baseline":
+            # The baseline alone still reads the policy's scan, memory and velocity: rows of one
+            # matrix run in parts (``--drivers baseline`` here, ``raw,shield`` there) must compare
+            # like with like. Only ``--policy baseline`` gives it the study's v1 scan (``--sensor``).
+            _, _, meta = load_driver(a.policy, shield=False, sensor=a.sensor)
         env = driver_env(meta, a)
         if "baseline" in wanted:
             drivers["baseline"] = ArcController(env.layout)     # the same scan (and memory) as the policy
         motion = env.motion
-        old = _reused(a, name, motion, env.sonar.profile)
+        old = _reused(a, name, motion, env.sonar.profile, env.layout.to_dict())
         wanted_cells = set(mx.parse_cells(a.cells, len(cells)))
         skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
                                                           for d in drivers}
@@ -330,7 +337,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     mx.write_csv(rows, prefix.with_suffix(".csv"))
     prefix.with_suffix(".json").write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
-         "sensor": env.sonar.profile, "replan": a.replan,
+         "sensor": env.sonar.profile, "replan": a.replan, "observation": env.layout.to_dict(),
          "policy": policy, "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
