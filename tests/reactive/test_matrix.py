@@ -91,3 +91,6 @@ def test_the_baseline_reads_the_policys_observation_whichever_drivers_run(tmp_pa
     assert main(args + ["--policy", "baseline", "--drivers", "baseline", "--out", str(v1)]) == 0
     assert load(v1)["observation"]["name"] == "cage-obs-v1"
     assert main(args + ["--drivers", "raw,baseline", "--reuse", str(v1.with_suffix(".json"))]) == 2
+    fls = tmp_path / "fls"                # --sensor with no policy named: the baseline on that sonar alone
+    assert main(args + ["--drivers", "baseline", "--sensor", "fls", "--out", str(fls)]) == 0
+    assert load(fls)["sensor"] == "fls" and load(fls)["observation"] != a["observation"]

@@ -278,13 +278,14 @@ def main(argv: list[str] | None = None) -> int:
 def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observation: dict) -> list[dict]:
     """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked.
     The observation layout is checked where the file records it (files before session 25 do not)."""
+    unrecorded = {"replan": "off", "observation": observation}   # what a file too old to record the key ran with
     rows: list[dict] = []
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
         for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
                           ("motion", motion), ("sensor", sensor), ("replan", a.replan),
                           ("observation", observation)):
-            if old.get(key, "off" if key != "observation" else mine) != mine:
+            if old.get(key, unrecorded.get(key)) != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
         have = {(r["cell"], r["driver"]) for r in rows}
         rows += [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
@@ -304,10 +305,12 @@ def matrix_main(a: argparse.Namespace) -> int:
         for d in wanted:
             if d != "baseline":
                 drivers[d], _, meta = load_driver(a.policy, shield=(d == "shield"), sensor=a.sensor)
-        if meta is None and a.policy != "baseline":
+        own_sonar = a.policy == "baseline" or (a.policy is None and a.sensor is not None)
+        if meta is None and not own_sonar:
             # The baseline alone still reads the policy's scan, memory and velocity: rows of one
             # matrix run in parts (``--drivers baseline`` here, ``raw,shield`` there) must compare
-            # like with like. Only ``--policy baseline`` gives it the study's v1 scan (``--sensor``).
+            # like with like. Only ``--policy baseline``, or ``--sensor`` with no policy named,
+            # gives it that sonar's plain scan (as ``--sensor``'s help says).
             _, _, meta = load_driver(a.policy, shield=False, sensor=a.sensor)
         env = driver_env(meta, a)
         if "baseline" in wanted:
