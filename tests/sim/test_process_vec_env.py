@@ -8,16 +8,17 @@ import numpy as np
 import pytest
 
 from cage_sim.controller import ArcController
+from cage_sim.driver import FlownLabeller, ObservationLabeller
 from cage_sim.mission import EnvConfig
 from cage_sim.process_vec_env import ProcessVecEnv
-from cage_sim.vec_env import CageNavVecEnv
+from cage_sim.vec_env import CageNavVecEnv, finished
 
 
 @pytest.fixture
 def pair():
     cfg = EnvConfig()                       # study sonar: no noise, so every draw is the scenario generators'
     one = CageNavVecEnv(5, "cage", cfg, seed=5)
-    two = ProcessVecEnv(5, 2, "cage", cfg, seed=5, labeller=ArcController(cfg.layout, cfg.vehicle))
+    two = ProcessVecEnv(5, 2, "cage", cfg, seed=5, labeller=ObservationLabeller(ArcController(cfg.layout, cfg.vehicle)))
     yield one, two, ArcController(cfg.layout, cfg.vehicle)
     two.close()
 
@@ -35,8 +36,12 @@ def test_workers_answer_as_one_vector_env(pair):
         for x, y in zip(r1[:4], r2[:4]):
             assert np.array_equal(x, y)
         inf1, inf2 = r1[4], r2[4]
-        assert set(inf2) - set(inf1) == {"labels"}
+        assert set(inf2) - set(inf1) == {"labels", "final_labels"}
         assert np.array_equal(inf2["labels"], expert.act(r2[0]))
+        ends = dict(finished(inf1))
+        for i in range(5):    # the expert's action on an ended episode's last observation, NaN elsewhere
+            assert np.array_equal(inf2["final_labels"][i], expert.act(ends[i]) if i in ends else [np.nan],
+                                  equal_nan=True)
         for k in ("outcome", "is_success", "steps"):
             assert inf1[k].dtype == inf2[k].dtype and inf1[k].tolist() == inf2[k].tolist()
         if "final_obs" in inf1:
@@ -89,3 +94,30 @@ def test_bad_worker_counts_and_a_dead_worker_are_clear():
         env.step(np.zeros((2, 1)))
     env.close()
     assert not any(p.is_alive() for p in env._procs)
+
+
+def test_flown_labels_from_workers_are_the_flown_baseline_in_one_process():
+    """``FlownLabeller`` keeps one driver per env across steps (returns' motion, new missions reset
+    it); in the workers it labels exactly as in one process beside a ``CageNavVecEnv``, where the
+    schools move and the current drifts the vehicle."""
+    cfg = EnvConfig()
+    scenario = "cage?current=0.4&schools=3"
+    ctrl = ArcController(cfg.layout, cfg.vehicle)
+    one, here = CageNavVecEnv(4, scenario, cfg, seed=3), FlownLabeller(ctrl)
+    two = ProcessVecEnv(4, 2, scenario, cfg, seed=3, labeller=FlownLabeller(ArcController(cfg.layout, cfg.vehicle)))
+    try:
+        o1, _ = one.reset()
+        _, i2 = two.reset()
+        assert np.array_equal(here(o1, one.missions)[0], i2["labels"])
+        rng, ended, differs = np.random.default_rng(1), 0, 0
+        for _ in range(80):
+            a = rng.uniform(-1, 1, (4, 1))
+            o1, *_, inf1 = one.step(a)
+            *_, inf2 = two.step(a)
+            lab, fin = here(o1, one.missions, finished(inf1))
+            assert np.array_equal(lab, inf2["labels"]) and np.array_equal(fin, inf2["final_labels"], equal_nan=True)
+            ended += int(np.isfinite(fin).sum())
+            differs += int((lab != ObservationLabeller(ctrl)(o1, one.missions)[0]).sum())
+        assert ended >= 2 and differs > 0     # episodes ended; perception changed some actions
+    finally:
+        two.close()

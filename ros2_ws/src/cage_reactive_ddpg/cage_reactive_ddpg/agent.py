@@ -64,7 +64,7 @@ class DDPGAgent:
 
     def __init__(self, cfg: TrainConfig, obs_dim: int, act_dim: int = 1):
         self.cfg = cfg
-        self.actor = Actor(obs_dim, cfg.actor_hidden, act_dim)
+        self.actor = Actor(obs_dim, cfg.actor_hidden, act_dim, residual=cfg.residual)
         self.critic = CriticEnsemble(obs_dim, cfg.critic_hidden, act_dim, n=2 if cfg.twin_critic else 1)
         self.actor_target = copy.deepcopy(self.actor)
         self.critic_target = copy.deepcopy(self.critic)

@@ -16,7 +16,10 @@ import yaml
 from cage_sim.mission import EnvConfig, RewardConfig
 
 
-EXPERTS = ("", "baseline")
+# "baseline": the classical controller on the observation alone (drift from its velocity part,
+# returns static, no final approach); "flown": the baseline as evaluate and policy_node fly it
+# (cage_sim.driver.FlownLabeller: drift from the DVL, returns' motion across scans, final approach).
+EXPERTS = ("", "baseline", "flown")
 
 
 @dataclass
@@ -71,6 +74,7 @@ class TrainConfig:
     bc_weight: float = 0.0               # behaviour-cloning weight in the actor loss (TD3+BC normalised)
     bc_weight_final: float = -1.0        # < 0: constant; else linear decay to this weight
     q_filter: bool = True                # clone only where Q(s, expert) >= Q(s, actor) (Nair et al. 2018)
+    residual: bool = False               # the actor moves the expert's action (networks.residual_action); needs expert: flown
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
     replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
     replay_max_tries: int = 3            # times one mission may be flown in all
@@ -103,6 +107,9 @@ class TrainConfig:
             raise ValueError(f"expert: must be one of {EXPERTS}, got {self.expert!r}")
         if (self.expert_fraction > 0 or self.bc_weight > 0) and not self.expert:
             raise ValueError("expert_fraction / bc_weight need an expert (expert: baseline)")
+        if self.residual and self.expert != "flown":
+            raise ValueError(f"residual: needs expert: flown (the base action is the flown baseline's), "
+                             f"got expert: {self.expert!r}")
         if not 0.0 <= self.expert_fraction <= 1.0 or self.expert_fraction_final > 1.0:
             raise ValueError("expert_fraction: must be in [0, 1]")
         if not 0.0 <= self.replay_fraction <= 1.0 or self.replay_max_tries < 1:

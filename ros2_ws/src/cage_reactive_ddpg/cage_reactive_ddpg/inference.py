@@ -7,6 +7,7 @@ state dict (``safetensors.numpy``, no torch) and computes the same function:
 
     obs -> [normalise: (obs - mean) / sqrt(var + eps), clipped to +-clip, when enabled]
         -> (Linear -> ReLU)* -> Linear -> tanh
+        [residual: -> residual_action(last input, that)]
 
 The arithmetic is float32, as torch's forward pass: on the shipped policy the two agree to better
 than 1e-6 (tested), while either differs from the exact (float64) result by up to ~3e-6 for
@@ -29,7 +30,8 @@ _LINEAR = re.compile(r"^net\.(\d+)\.weight$")
 class NumpyActor:
     """The actor MLP as NumPy arrays (float32), built from an ``Actor`` state dict."""
 
-    def __init__(self, state: Mapping[str, np.ndarray]):
+    def __init__(self, state: Mapping[str, np.ndarray], residual: bool = False):
+        self.residual = bool(residual)
         idx = sorted(int(m.group(1)) for k in state if (m := _LINEAR.match(k)))
         if not idx:
             raise ValueError("no linear layers (net.<i>.weight) in the state dict")
@@ -54,7 +56,22 @@ class NumpyActor:
             h = h @ w + b
             if i < last:
                 np.maximum(h, 0.0, out=h)
-        return np.tanh(h).astype(np.float32)
+        out = np.tanh(h).astype(np.float32)
+        if not self.residual:
+            return out
+        base = np.clip(np.asarray(obs, dtype=np.float32)[..., -self.act_dim:], -1.0, 1.0)
+        return residual_action(base, out).astype(np.float32)
+
+
+def residual_action(base, r):
+    """The action a residual ``r`` in [-1, 1] makes of a ``base`` action in [-1, 1]: ``r`` is the
+    share of the way from the base to the end of the range on its side (r = 0: the base; r = +1:
+    full left; r = -1: full right). Why not ``clip(base + r)``: the clip has no gradient at the
+    ends, where the base often sits (a full turn), so the critic could never pull the action back;
+    here the slope is 1 - base towards +1 and 1 + base towards -1, never both zero. Plain
+    arithmetic, so the torch actor (``networks.Actor``) and this NumPy one share it."""
+    sign = (r > 0) * 1.0 - (r < 0) * 1.0
+    return base + r * (1.0 - sign * base)
 
 
 def read_state(path: str | Path) -> dict[str, np.ndarray]:

@@ -4,6 +4,8 @@ Why one module: a policy file is only a state dict plus sizes; whoever loads it 
 the same modules, so the modules live here and nowhere else.
 
 Actor: obs -> MLP (ReLU) -> tanh, an action in [-1, 1] (the vehicle scales it to +-max_turn).
+A residual actor (``residual=True``) reads the observation plus a base action (the classical
+controller's, last input) and moves that action by the MLP's output (``residual_action``).
 CriticEnsemble: n critics [obs, action] -> MLP (ReLU) -> Q (linear), one batched matmul per layer.
 Both carry an ``ObsNormalizer`` (identity unless observation normalisation is switched on) so a saved
 actor normalises its inputs by itself.
@@ -14,6 +16,8 @@ from typing import Sequence
 
 import torch
 from torch import nn
+
+from .inference import residual_action
 
 
 class ObsNormalizer(nn.Module):
@@ -57,11 +61,15 @@ def mlp(in_dim: int, hidden: Sequence[int], out_dim: int) -> nn.Sequential:
 
 
 class Actor(nn.Module):
-    """Deterministic policy mu(s) in [-1, 1]^act_dim."""
+    """Deterministic policy mu(s) in [-1, 1]^act_dim. ``residual``: the last input is a base
+    action and the output is ``residual_action(base, tanh(MLP(s)))`` (residual policy learning,
+    Silver et al. 2018; Johannink et al. 2019): the small initial last layer starts it at the base."""
 
-    def __init__(self, obs_dim: int, hidden: Sequence[int] = (400, 300), act_dim: int = 1):
+    def __init__(self, obs_dim: int, hidden: Sequence[int] = (400, 300), act_dim: int = 1,
+                 residual: bool = False):
         super().__init__()
         self.obs_dim, self.act_dim, self.hidden = obs_dim, act_dim, tuple(int(h) for h in hidden)
+        self.residual = bool(residual)
         self.norm = ObsNormalizer(obs_dim)
         self.net = mlp(obs_dim, self.hidden, act_dim)
         # Small last layer, as in the DDPG paper: start near a = 0 (straight ahead), not saturated.
@@ -69,7 +77,10 @@ class Actor(nn.Module):
         nn.init.uniform_(self.net[-1].bias, -3e-3, 3e-3)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
-        return torch.tanh(self.net(self.norm(obs)))
+        out = torch.tanh(self.net(self.norm(obs)))
+        if not self.residual:
+            return out
+        return residual_action(obs[..., -self.act_dim:].clamp(-1.0, 1.0), out)
 
 
 class CriticEnsemble(nn.Module):

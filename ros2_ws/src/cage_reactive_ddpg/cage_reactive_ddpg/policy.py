@@ -23,6 +23,7 @@ from typing import Any
 from typing import TYPE_CHECKING
 
 import numpy as np
+from cage_sim.controller import ArcController
 from cage_sim.observation import ObservationLayout, layout_from_dict
 from cage_sim.vehicle import VehicleParams
 
@@ -75,8 +76,14 @@ def save_policy(path: str | Path, actor: "Actor", metadata: dict[str, Any],
             "action": {"dim": actor.act_dim, "max_turn_deg": math.degrees(VehicleParams().max_turn),
                        "meaning": "change of heading per decision = action * max_turn"},
             "network": {"obs_dim": actor.obs_dim, "actor_hidden": list(actor.hidden),
-                        "activation": "relu", "output": "tanh"},
+                        "activation": "relu", "output": "tanh", "residual": bool(getattr(actor, "residual", False))},
             "obs_norm": bool(actor.norm.enabled), "code_version": code_version(), **metadata}
+    if meta["network"]["residual"]:
+        meta["residual_base"] = {"controller": "cage_sim.controller.ArcController",
+                                 "params": ArcController(layout).tunables(),
+                                 "input": "the observation, then the controller's action on it (last input)",
+                                 "perception": "as the baseline is flown (cage_sim.driver.decide_batch)",
+                                 "action": "residual_action(base, tanh(MLP)) (inference.py)"}
     mpath.write_text(json.dumps(meta, indent=2, default=_json_default))
     return wpath, mpath
 
@@ -97,13 +104,28 @@ class LoadedPolicy:
     layout: ObservationLayout
     metadata: dict
     path: Path
+    residual_base: ArcController | None = None   # a residual policy: the controller it moves
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        """(D,) -> (1,) or (B, D) -> (B, 1), float32 in [-1, 1]."""
+        """(D,) -> (1,) or (B, D) -> (B, 1), float32 in [-1, 1]. A residual policy's base action is
+        then the controller's on the observation alone; ``driver.decide_batch`` instead gives it the
+        controller's action with the vehicle's perception (``act_residual``), as in training."""
+        o = self._check(obs)
+        if self.residual_base is not None:
+            return self.act_residual(o, self.residual_base.act(o))
+        return self.actor(o)
+
+    def act_residual(self, obs: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """A residual policy's action(s) moving the ``base`` action(s) (B,) or (B, 1)."""
+        o = self._check(obs)
+        b = np.asarray(base, dtype=np.float32).reshape(o.shape[:-1] + (1,))
+        return self.actor(np.concatenate([o, b], axis=-1))
+
+    def _check(self, obs: np.ndarray) -> np.ndarray:
         o = np.asarray(obs, dtype=np.float32)
         if o.shape[-1] != self.layout.size:
             raise ValueError(f"observation has {o.shape[-1]} values, the policy's layout has {self.layout.size}")
-        return self.actor(o)
+        return o
 
     @property
     def profile(self) -> str:
@@ -173,8 +195,11 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
         raise PolicyLoadError(f"policy {wpath}: action scale max_turn_deg is {file_turn!r} in the file, "
                               f"this vehicle uses {math.degrees(vehicle.max_turn):g}")
     net = meta.get("network", {})
-    if net.get("obs_dim") != layout.size:
-        raise PolicyLoadError(f"policy {wpath}: network obs_dim is {net.get('obs_dim')!r}, the layout has {layout.size}")
+    residual = bool(net.get("residual", False))
+    if net.get("obs_dim") != layout.size + residual:
+        raise PolicyLoadError(f"policy {wpath}: network obs_dim is {net.get('obs_dim')!r}, the layout has {layout.size}"
+                              + (" (+ 1 base action: residual)" if residual else ""))
+    base = _residual_base(meta, layout, vehicle, mpath) if residual else None
     if (net.get("activation", "relu"), net.get("output", "tanh")) != ("relu", "tanh"):   # what NumpyActor runs
         raise PolicyLoadError(f"policy metadata {mpath}: network activation {net.get('activation')!r}, output "
                               f"{net.get('output')!r}: this build runs relu hidden layers and a tanh output")
@@ -187,8 +212,24 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
         act_dim = int(meta["action"].get("dim", 1))
     except (TypeError, ValueError) as err:
         raise PolicyLoadError(f"policy metadata {mpath}: network.actor_hidden / action.dim: {err}") from None
-    _check_state(expected_shapes(layout.size, hidden, act_dim), state, wpath)
-    return LoadedPolicy(NumpyActor(state), layout, meta, wpath)
+    _check_state(expected_shapes(layout.size + residual, hidden, act_dim), state, wpath)
+    return LoadedPolicy(NumpyActor(state, residual), layout, meta, wpath, base)
+
+
+def _residual_base(meta: dict, layout, vehicle: VehicleParams, mpath: Path) -> ArcController:
+    """The controller a residual policy moves; refused when its parameters differ from this build's
+    (the policy learnt to correct that controller, not another), naming each."""
+    base = ArcController(layout, vehicle)
+    rec = (meta.get("residual_base") or {}).get("params")
+    if not isinstance(rec, dict):
+        raise PolicyLoadError(f"policy metadata {mpath}: a residual policy without residual_base.params")
+    mine = base.tunables()
+    diffs = [f"{k}: file has {rec.get(k)!r}, this build uses {v!r}" for k, v in mine.items()
+             if not (isinstance(rec.get(k), (int, float)) and math.isclose(rec[k], v, rel_tol=1e-9))]
+    diffs += [f"{k}: unknown to this build's controller" for k in rec if k not in mine]
+    if diffs:
+        raise PolicyLoadError(f"policy metadata {mpath}: residual base controller differs: " + "; ".join(diffs))
+    return base
 
 
 def expected_shapes(obs_dim: int, hidden: list[int], act_dim: int) -> dict[str, tuple[int, ...]]:

@@ -29,6 +29,7 @@ from typing import Any, Callable
 import numpy as np
 import torch
 from cage_sim.controller import ArcController
+from cage_sim.driver import FlownLabeller, ObservationLabeller
 from cage_sim.process_vec_env import ProcessVecEnv
 from cage_sim.vec_env import CageNavVecEnv, finished
 from tqdm import tqdm
@@ -82,11 +83,10 @@ def read_checkpoint(path: str | Path) -> dict:
     return state
 
 
-def _reset(envs) -> tuple[np.ndarray, np.ndarray | None]:
-    """First observations from gymnasium's ``(obs, infos)`` or a bare array (Study1DVecEnv), and the
-    expert's labels for them when env workers compute them (``ProcessVecEnv``)."""
+def _reset(envs) -> tuple[np.ndarray, dict]:
+    """First observations and infos from gymnasium's ``(obs, infos)`` or a bare array (Study1DVecEnv)."""
     out = envs.reset()
-    return (out[0], out[1].get("labels")) if isinstance(out, tuple) else (out, None)
+    return out if isinstance(out, tuple) else (out, {})
 
 
 def _success(infos: dict, i: int) -> bool:
@@ -97,13 +97,28 @@ def _success(infos: dict, i: int) -> bool:
 
 
 class ActorPolicy:
-    """The agent's current actor, without noise, behind the Policy protocol."""
+    """The agent's current actor, without noise, behind the Policy protocol; a residual actor's
+    base action comes from ``residual_base`` (``driver.decide_batch`` gives it the perception)."""
 
-    def __init__(self, agent: DDPGAgent):
-        self.agent = agent
+    def __init__(self, agent: DDPGAgent, residual_base: ArcController | None = None):
+        self.agent, self.residual_base = agent, residual_base
 
     def act(self, obs: np.ndarray) -> np.ndarray:
+        if self.residual_base is not None:   # the observation alone (perception off)
+            return self.act_residual(obs, self.residual_base.act(obs))
         return self.agent.act(np.asarray(obs, np.float32))
+
+    def act_residual(self, obs: np.ndarray, base: np.ndarray) -> np.ndarray:
+        return self.agent.act(with_base(obs, base))
+
+
+def with_base(obs: np.ndarray, base: np.ndarray | None) -> np.ndarray:
+    """A residual actor's input: the observation(s) with the base action appended (float32)."""
+    o = np.asarray(obs, np.float32)
+    if base is None:
+        return o
+    b = np.asarray(base, np.float32).reshape(o.shape[:-1] + (1,))
+    return np.concatenate([o, b], axis=-1)
 
 
 class Trainer:
@@ -121,15 +136,18 @@ class Trainer:
         self.env_cfg = cfg.env_config()
         self.wp_fn = waypoint_fn(cfg.planner)
         self.replay = None
-        # Expert guidance: the classical baseline reads the same observation (drift from its velocity
-        # part) and labels every transition; a share of the episodes is flown by it (demonstrations).
-        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle) if cfg.expert == "baseline" else None
+        # Expert guidance: the classical baseline labels every transition (on the observation alone,
+        # or as it is flown: FlownLabeller); a share of the episodes is flown by it (demonstrations).
+        # A residual actor reads that label as its base action.
+        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle) if cfg.expert else None
+        self.labeller = None if self.expert is None else \
+            (FlownLabeller if cfg.expert == "flown" else ObservationLabeller)(self.expert)
         if cfg.scenario == STUDY1D:
             self.envs = Study1DVecEnv(cfg.n_envs, seed=cfg.seed)
             obs_dim = 1
         elif cfg.env_workers > 1:   # the envs and the expert's rollouts in worker processes (labels come back)
             self.envs = ProcessVecEnv(cfg.n_envs, cfg.env_workers, sampler(cfg.scenario), self.env_cfg, self.wp_fn,
-                                      seed=cfg.seed, labeller=self.expert)
+                                      seed=cfg.seed, labeller=self.labeller)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         else:
             self.replay = HardCaseReplay(cfg.replay_fraction, cfg.replay_max_tries, seed=cfg.seed) \
@@ -137,6 +155,7 @@ class Trainer:
             self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed,
                                       replay=self.replay)
             obs_dim = int(self.envs.single_observation_space.shape[0])
+        obs_dim += int(cfg.residual)     # the base action, appended (with_base)
         self.agent = DDPGAgent(cfg, obs_dim)
         self.demo = np.zeros(cfg.n_envs, dtype=bool)
         self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim)
@@ -207,7 +226,8 @@ class Trainer:
         log = csv.DictWriter(csv_file, CSV_FIELDS, extrasaction="ignore")
         log.writeheader()
         log.writerows(self.rows)
-        obs, labels = _reset(self.envs)
+        obs, infos0 = _reset(self.envs)
+        labels, _ = self._labels(obs, infos0)
         ep_ret, ep_len = np.zeros(c.n_envs), np.zeros(c.n_envs, int)
         recent = deque(self.rows[-c.moving_average:], maxlen=c.moving_average)
         pending = 0.0
@@ -225,24 +245,28 @@ class Trainer:
         # then holds every transition up to the step before: one step of 16 later than in one process).
         overlap = isinstance(self.envs, ProcessVecEnv)
         while self.progress_fraction() < 1.0:
-            self.agent.observe(obs)
-            expert = labels if labels is not None else self.expert.act(obs) if self.expert is not None else None
-            act = self.behaviour(obs, expert)
+            expert = labels                       # the expert's actions on obs (None: no expert)
+            pin = with_base(obs, expert if c.residual else None)      # what the actor reads
+            self.agent.observe(pin)
+            act = self.behaviour(pin, expert)
             if overlap:     # the workers fly this step while the networks learn from the buffer so far
                 self.envs.step_async(act)
                 pending, info = self._learn(pending, info)
                 nxt, rew, term, trunc, infos = self.envs.step_wait()
             else:
                 nxt, rew, term, trunc, infos = self.envs.step(act)
-            labels = infos.get("labels")          # the expert's actions on nxt, from the env workers
+            labels, final_labels = self._labels(nxt, infos)
             real_next = nxt.copy()
             for i, o in finished(infos):
                 real_next[i] = o
+            next_in = real_next
+            if c.residual:     # the base action of each next state: of the last one where an episode ended
+                next_in = with_base(real_next, np.where(np.isfinite(final_labels), final_labels, labels))
             ep_ret += rew
             ep_len += 1
             for i in range(c.n_envs):
                 done = bool(term[i] or trunc[i])
-                for tr in self.folder.push(i, obs[i], act[i], float(rew[i]), real_next[i], bool(term[i]), done,
+                for tr in self.folder.push(i, pin[i], act[i], float(rew[i]), next_in[i], bool(term[i]), done,
                                            None if expert is None else expert[i]):
                     self.buffer.add(*tr)
                 if done:
@@ -301,6 +325,15 @@ class Trainer:
         self.envs.close()       # env worker processes end here
         return final
 
+    def _labels(self, obs: np.ndarray, infos: dict) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The expert's actions on ``obs`` and on the last observation of each episode that ended
+        (NaN elsewhere): from the env workers, or from the labeller here (None, None: no expert)."""
+        if self.labeller is None:
+            return None, None
+        if "labels" in infos:
+            return infos["labels"], infos["final_labels"]
+        return self.labeller(obs, getattr(self.envs, "missions", []), finished(infos))
+
     def _learn(self, pending: float, info: dict) -> tuple[float, dict]:
         """The gradient updates this env step earns (``updates_per_step`` per env step, once the
         prefill is over and the buffer holds a batch); ``pending`` carries the fraction left over."""
@@ -352,10 +385,10 @@ class Trainer:
         c = self.cfg
         spec = c.eval_scenario or parse_mix(c.scenario)[0][0]
         if spec == STUDY1D:
-            s = evaluate_1d(ActorPolicy(self.agent), c.eval_episodes, self.eval_seed)
+            s = evaluate_1d(self.actor_policy(), c.eval_episodes, self.eval_seed)
         else:
             scs = episode_scenarios(spec, c.eval_episodes, self.eval_seed, self.wp_fn)
-            s = summarize(run_missions(ActorPolicy(self.agent), scs, self.env_cfg))
+            s = summarize(run_missions(self.actor_policy(), scs, self.env_cfg))
         s.update(scenario=spec, step=self.step, episodes_trained=self.episodes, seconds=round(self.train_seconds, 1))
         self.evals.append(s)
         if writer:
@@ -370,6 +403,9 @@ class Trainer:
         if self.on_eval is not None:
             self.on_eval(s)
         return s
+
+    def actor_policy(self) -> ActorPolicy:
+        return ActorPolicy(self.agent, self.expert if self.cfg.residual else None)
 
     def _save(self, name: str, evaluation: dict) -> None:
         c = self.cfg

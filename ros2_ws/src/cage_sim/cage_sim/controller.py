@@ -165,6 +165,11 @@ class ArcController:
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)
 
+    def tunables(self) -> dict[str, float]:
+        """The controller's own parameters (not the layout or the vehicle): what a residual
+        policy's file records, since its actions are moves of this controller's."""
+        return {k: getattr(self, k) for k in ("horizon", "min_clearance", "comfort", "comfort_weight", "goal_pass")}
+
 
 def act_rows(act_one, obs: np.ndarray) -> np.ndarray:
     """The Policy protocol's shapes for a per-observation rule: (D,) -> (1,), (B, D) -> (B, 1)."""

@@ -98,31 +98,92 @@ def controller_of(policy: Policy) -> ArcController | None:
     return policy if isinstance(policy, ArcController) else None
 
 
+def residual_base(policy) -> ArcController | None:
+    """The controller whose action a residual policy moves (``residual_base`` attribute), else None."""
+    return getattr(policy, "residual_base", None)
+
+
 def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[Moment]) -> tuple[np.ndarray, np.ndarray]:
     """Actions (B,) clipped to [-1, 1] and shielded flags (B,) for drivers sharing one policy: one
     batched forward of the learned policy, then each vehicle's shield or baseline with its own
-    ``Perception``. A raw policy (or perception off) reads only its observation."""
+    ``Perception``. A raw policy (or perception off) reads only its observation; a residual policy
+    (``residual_base``) gets its base action from the controller with that perception, made once
+    per decision and shared with the shield (``ReturnMotion`` sees every scan once)."""
     policy = drivers[0].policy
-    ctrl = controller_of(policy)
+    shield = policy if isinstance(policy, SafetyShield) else None
+    learned = shield.policy if shield is not None else policy
+    base = residual_base(learned)
+    ctrl = controller_of(policy) or base
     n = len(drivers)
     if ctrl is None or drivers[0].motion is None:
         before = getattr(policy, "interventions", 0)
         acts = np.asarray(policy.act(obs), dtype=np.float64).reshape(n, -1)[:, 0]
         flags = np.full(n, getattr(policy, "interventions", 0) != before and n == 1)
         return np.clip(acts, -1.0, 1.0), flags
-    shield = policy if isinstance(policy, SafetyShield) else None
-    raw = np.asarray(shield.policy.act(obs), dtype=np.float64).reshape(n, -1)[:, 0] if shield else None
-    out, flags = np.empty(n), np.zeros(n, dtype=bool)
-    for j, (d, o, mo) in enumerate(zip(drivers, obs, moments)):
+    seen = []
+    for d, o, mo in zip(drivers, obs, moments):
         dist, err = ctrl.layout.waypoint_from(o)
         drift = body_drift(mo.v_ground, d.vehicle.speed) if mo.v_ground is not None else None
-        p = perceive(ctrl.returns(o), mo.pose, mo.t, drift, mo.final, d.motion)
-        if shield is None:
-            out[j] = ctrl.decide(float(dist), float(err), p)
-            continue
+        seen.append((float(dist), float(err), perceive(ctrl.returns(o), mo.pose, mo.t, drift, mo.final, d.motion)))
+    if base is None and shield is None:          # the classical baseline
+        return np.clip([ctrl.decide(*s) for s in seen], -1.0, 1.0), np.zeros(n, dtype=bool)
+    if base is not None:
+        raw = learned.act_residual(obs, np.array([base.decide(*s) for s in seen]))
+    else:
+        raw = learned.act(obs)
+    raw = np.asarray(raw, dtype=np.float64).reshape(n, -1)[:, 0]
+    if shield is None:
+        return np.clip(raw, -1.0, 1.0), np.zeros(n, dtype=bool)
+    out, flags = np.empty(n), np.zeros(n, dtype=bool)
+    for j, (d, mo, (dist, err, p)) in enumerate(zip(drivers, moments, seen)):
         before = shield.interventions
         stalled = shield.recover and d.stall is not None and mo.remaining is not None \
             and d.stall.update(mo.remaining)
-        out[j] = shield.check(raw[j], float(dist), float(err), p, stalled, d.commit)
+        out[j] = shield.check(raw[j], dist, err, p, stalled, d.commit)
         flags[j] = shield.interventions != before
     return np.clip(out, -1.0, 1.0), flags
+
+
+class ObservationLabeller:
+    """Expert labels for training (``expert: baseline``): ``policy.act`` on the observation alone."""
+
+    def __init__(self, policy: Policy):
+        self.policy = policy
+
+    def __call__(self, obs: np.ndarray, missions: Sequence, finals: Sequence[tuple[int, np.ndarray]] = ()
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(labels of ``obs`` (n, 1), labels of each ended mission's last observation (n, 1), NaN
+        where none ended); ``missions`` the env's missions now (unused here)."""
+        final = np.full((len(obs), 1), np.nan, dtype=np.float32)
+        for i, o in finals:
+            final[i] = np.asarray(self.policy.act(o), dtype=np.float32).reshape(-1)[:1]
+        return np.asarray(self.policy.act(obs), dtype=np.float32).reshape(len(obs), 1), final
+
+
+class FlownLabeller(ObservationLabeller):
+    """Expert labels for training (``expert: flown``): the classical baseline as the evaluator and
+    policy_node fly it, one ``Driver`` per env (drift from the DVL, the returns' motion across
+    scans, the final approach when the waypoint is the goal). Why: the observation alone hides
+    the last two, and the controller reading only the observation times out near the goal far
+    more often (orbits) than the flown baseline; a residual policy's base must be what the graph
+    computes. Called on every observation an env returns, in order; a new mission object resets
+    its env's driver."""
+
+    def __init__(self, controller: ArcController):
+        super().__init__(controller)
+        self.drivers: list[Driver] = []
+        self.missions: list = []
+
+    def __call__(self, obs, missions, finals=()):
+        final = np.full((len(obs), 1), np.nan, dtype=np.float32)
+        for i, o in finals:        # the ended mission's last decision, with its own driver
+            final[i] = decide_batch([self.drivers[i]], o[None], [mission_moment(self.missions[i])])[0][0]
+        while len(self.drivers) < len(missions):
+            self.drivers.append(Driver(self.policy, self.policy.layout, self.policy.vehicle))
+            self.missions.append(None)
+        for i, m in enumerate(missions):
+            if self.missions[i] is not m:
+                self.drivers[i].reset()
+                self.missions[i] = m
+        acts, _ = decide_batch(self.drivers[:len(missions)], obs, [mission_moment(m) for m in missions])
+        return acts.astype(np.float32).reshape(-1, 1), final

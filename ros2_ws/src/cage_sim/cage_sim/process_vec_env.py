@@ -3,8 +3,8 @@
 Why: one trainer process steps its missions and then updates its networks, one core at a time;
 on a 2-core machine the other core idles. Here each worker process owns a ``CageNavVecEnv`` with
 its share of the envs (missions, sonar heads, memories) and, optionally, a ``labeller`` (the
-expert: a ``Policy`` whose actions on each returned observation come back with it, so the expert's
-rollouts also run in the workers). The parent sends actions, the workers step at the same time,
+expert, ``driver.ObservationLabeller`` or ``FlownLabeller``: its actions on each returned
+observation come back with it, so the expert's rollouts also run in the workers). The parent sends actions, the workers step at the same time,
 the parent merges their answers in env order: the same gymnasium vector API (SAME_STEP autoreset,
 ``final_obs`` / ``final_info``) as ``CageNavVecEnv``. ``step_async(actions)`` / ``step_wait()``
 split a step (gymnasium's ``AsyncVectorEnv`` names) so the caller can work while the workers fly
@@ -30,7 +30,7 @@ from gymnasium.vector.utils import batch_space
 
 from .env import ACTION_SPACE, observation_space
 from .mission import EnvConfig
-from .vec_env import CageNavVecEnv
+from .vec_env import CageNavVecEnv, finished
 
 WORKER_GONE = "an env worker process ended unexpectedly (see its traceback above)"
 
@@ -52,18 +52,18 @@ def _worker(conn, make: Callable[[], CageNavVecEnv], labeller) -> None:
     """One worker's loop: build its env, then answer commands until ``close`` (or the pipe ends)."""
     env = make()
 
-    def labels(obs):
-        return None if labeller is None else np.asarray(labeller.act(obs), dtype=np.float32)
+    def labels(obs, infos):
+        return None if labeller is None else labeller(obs, env.missions, finished(infos))
 
     try:
         while True:
             cmd, arg = conn.recv()
             if cmd == "reset":
                 obs, infos = env.reset(seed=arg)
-                conn.send((obs, infos, labels(obs)))
+                conn.send((obs, infos, labels(obs, infos)))
             elif cmd == "step":
                 obs, rew, term, trunc, infos = env.step(arg)
-                conn.send((obs, rew, term, trunc, infos, labels(obs)))
+                conn.send((obs, rew, term, trunc, infos, labels(obs, infos)))
             elif cmd == "rng_states":
                 conn.send(env.rng_states())
             elif cmd == "set_rng_states":
@@ -79,8 +79,10 @@ def _worker(conn, make: Callable[[], CageNavVecEnv], labeller) -> None:
 
 class ProcessVecEnv(VectorEnv):
     """``n_envs`` missions over ``n_workers`` forked processes (``CageNavVecEnv``'s arguments, less
-    ``replay``, plus ``labeller``: a Policy run in the workers on every returned observation, its
-    actions in ``infos["labels"]`` as a (n_envs, 1) array)."""
+    ``replay``, plus ``labeller``: ``driver.ObservationLabeller`` or ``FlownLabeller``, run in the
+    workers on every returned observation with the worker's missions; its actions in
+    ``infos["labels"]`` and, for the episodes that ended, on their last observation in
+    ``infos["final_labels"]`` (NaN elsewhere), each a (n_envs, 1) array)."""
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
@@ -164,7 +166,8 @@ class ProcessVecEnv(VectorEnv):
             for j, i in enumerate(idx):
                 infos = self._add_info(infos, env_info(rest, j), int(i))
         if self.labels_on:
-            infos["labels"] = np.concatenate(labels)
+            infos["labels"] = np.concatenate([lab[0] for lab in labels])
+            infos["final_labels"] = np.concatenate([lab[1] for lab in labels])
         return infos
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
