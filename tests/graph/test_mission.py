@@ -70,6 +70,26 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
     assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
 
 
+def test_residual_policy_raw_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path):
+    """The residual policy without the shield (``--shield off``): policy_node gives it the flown
+    baseline's action as its base (drift from the odometry twist, the returns' motion, the final
+    approach) through ``cage_sim.driver``, as offline; same outcome, decisions and final pose."""
+    weights = FLS.with_name("policy_residual.safetensors")
+    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(weights),
+                                 "--shield", "off", "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0",
+                                 "--timeout", "120", "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
+    assert result is not None, log
+    from dataclasses import replace
+    from cage_reactive_ddpg.policy import env_config_for
+    from cage_sim.sonar import make_sonar
+    driver, _, meta = load_driver(str(weights), shield=False)
+    assert driver.residual_base is not None
+    ep = offline(driver, CURRENT, 1, replace(env_config_for(meta), sonar=make_sonar("study", noise_std=0.0, dropout=0.0)))
+    assert ep.outcome == "goal" and ep.steps > 30
+    assert result["outcome"] == ep.outcome and result["steps"] == ep.steps, log
+    assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
+
+
 def test_scanning_head_mission_in_the_graph_ends_as_offline(ros_env, tmp_path):
     """sim_node sensor:=scanning (one beam per 22 ms, a 4 s sweep published oldest beam first, so the
     first sweep starts before t = 0): policy_node decides from the first decision on and the mission
