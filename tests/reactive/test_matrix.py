@@ -94,3 +94,15 @@ def test_the_baseline_reads_the_policys_observation_whichever_drivers_run(tmp_pa
     fls = tmp_path / "fls"                # --sensor with no policy named: the baseline on that sonar alone
     assert main(args + ["--drivers", "baseline", "--sensor", "fls", "--out", str(fls)]) == 0
     assert load(fls)["sensor"] == "fls" and load(fls)["observation"] != a["observation"]
+
+
+def test_markdown_of_merged_parts_marks_a_missing_driver_row():
+    """Rows merged from parts (``--reuse``) may hold a driver in some cells only: the table shows
+    '-' there instead of failing."""
+    from cage_reactive_ddpg.matrix import markdown
+    row = {"current": 0.5, "obstacles": "small", "goal_at": "any", "schools": 0, "episodes": 10,
+           "goal": 9, "collision": 1}
+    md = markdown([{**row, "cell": 0, "driver": "baseline"}, {**row, "cell": 1, "driver": "baseline"},
+                   {**row, "cell": 1, "driver": "shield", "goal": 10, "collision": 0}], "t")
+    lines = [ln for ln in md.splitlines() if ln.startswith("| 0.5")]
+    assert len(lines) == 2 and lines[0].endswith("| - | - |") and "100.0" in lines[1]

@@ -238,9 +238,9 @@ def markdown(rows: list[dict], title: str) -> str:
         rs = {r["driver"]: r for r in rows if r["cell"] == k}
         r0 = next(iter(rs.values()))
         cells = [f"{r0['current']:g}", r0["obstacles"], r0["goal_at"], str(r0["schools"])]
-        for d in drivers:
-            r = rs[d]
-            cells += [_pct(r["goal"], r["episodes"]), _pct(r["collision"], r["episodes"])]
+        for d in drivers:   # a merged part may lack a driver's row in some cells
+            r = rs.get(d)
+            cells += [_pct(r["goal"], r["episodes"]), _pct(r["collision"], r["episodes"])] if r else ["-", "-"]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
