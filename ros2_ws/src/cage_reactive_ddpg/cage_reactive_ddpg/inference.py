@@ -82,3 +82,12 @@ def read_state(path: str | Path) -> dict[str, np.ndarray]:
         return load_file(str(path))
     except SafetensorError as err:
         raise ValueError(str(err)) from None
+
+
+def with_base(obs: np.ndarray, base: np.ndarray | None) -> np.ndarray:
+    """A residual actor's input: the observation(s) with the base action appended (float32)."""
+    o = np.asarray(obs, np.float32)
+    if base is None:
+        return o
+    b = np.asarray(base, np.float32).reshape(o.shape[:-1] + (1,))
+    return np.concatenate([o, b], axis=-1)

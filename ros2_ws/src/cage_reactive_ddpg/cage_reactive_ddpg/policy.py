@@ -28,7 +28,7 @@ from cage_sim.observation import ObservationLayout, layout_from_dict
 from cage_sim.vehicle import VehicleParams
 
 from . import __version__
-from .inference import NumpyActor, read_state
+from .inference import NumpyActor, read_state, with_base
 
 if TYPE_CHECKING:   # the trainer's side only; loading a policy never imports torch
     from .networks import Actor
@@ -117,9 +117,7 @@ class LoadedPolicy:
 
     def act_residual(self, obs: np.ndarray, base: np.ndarray) -> np.ndarray:
         """A residual policy's action(s) moving the ``base`` action(s) (B,) or (B, 1)."""
-        o = self._check(obs)
-        b = np.asarray(base, dtype=np.float32).reshape(o.shape[:-1] + (1,))
-        return self.actor(np.concatenate([o, b], axis=-1))
+        return self.actor(with_base(self._check(obs), base))
 
     def _check(self, obs: np.ndarray) -> np.ndarray:
         o = np.asarray(obs, dtype=np.float32)

@@ -41,6 +41,7 @@ from .config import TrainConfig
 from .evaluate import run_missions, summarize
 from .hard_cases import HardCaseReplay
 from .missions import episode_scenarios, parse_mix, sampler, waypoint_fn
+from .inference import with_base
 from .policy import save_policy
 from .study1d import STUDY1D, Study1DVecEnv, evaluate_1d
 
@@ -110,15 +111,6 @@ class ActorPolicy:
 
     def act_residual(self, obs: np.ndarray, base: np.ndarray) -> np.ndarray:
         return self.agent.act(with_base(obs, base))
-
-
-def with_base(obs: np.ndarray, base: np.ndarray | None) -> np.ndarray:
-    """A residual actor's input: the observation(s) with the base action appended (float32)."""
-    o = np.asarray(obs, np.float32)
-    if base is None:
-        return o
-    b = np.asarray(base, np.float32).reshape(o.shape[:-1] + (1,))
-    return np.concatenate([o, b], axis=-1)
 
 
 class Trainer:
