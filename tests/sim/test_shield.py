@@ -155,6 +155,19 @@ def test_return_motion_gives_static_obstacles_passed_by_far_fewer_velocities():
     assert raw >= 20 and checked * 3 <= raw          # 92 -> 22 when written
 
 
+def test_cluster_medians_equal_numpy_median_per_cluster():
+    # ReturnMotion decides "static" by each cluster's median distance to the previous scan's
+    # surface; one sort over all clusters must give np.median's value for each, odd and even sizes.
+    from cage_sim.perception import _cluster_medians
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(1, 120))
+        labels = np.unique(np.sort(rng.integers(0, int(rng.integers(1, 30)), n)), return_inverse=True)[1]
+        values = rng.exponential(0.3, n)
+        want = [np.median(values[labels == k]) for k in range(labels.max() + 1)]
+        assert np.array_equal(_cluster_medians(values, labels, labels.max() + 1), want)
+
+
 def test_empty_scan_and_waypoint_dead_ahead_goes_straight():
     ctrl = ArcController()
     obs = ctrl.layout.build(np.full(ctrl.layout.n_beams, np.inf), 10.0, 0.0)

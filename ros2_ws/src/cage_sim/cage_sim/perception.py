@@ -113,11 +113,12 @@ class ReturnMotion:
         if prev is None or len(prev) == 0 or len(pts) == 0 or dt <= 0:
             return vel
         a, b = self._segments(prev, prev_labels)
+        moving = _cluster_medians(_point_segment_distance(world, a, b), labels, n_clusters) > self.still
+        if not moving.any():
+            return vel
         prev_cents = np.array([prev[prev_labels == k].mean(axis=0) for k in range(prev_labels.max() + 1)])
-        for k in range(n_clusters):
+        for k in np.flatnonzero(moving):
             members = world[labels == k]
-            if np.median(_point_segment_distance(members, a, b)) <= self.still:
-                continue
             c = members.mean(axis=0)
             d = np.linalg.norm(prev_cents - c, axis=1)
             j = int(np.argmin(d))
@@ -147,6 +148,18 @@ class ReturnMotion:
             labels[labels == labels[-1]] = 0                     # a 360 deg scan wraps around
         _, labels = np.unique(labels, return_inverse=True)
         return labels
+
+
+def _cluster_medians(values: np.ndarray, labels: np.ndarray, n: int) -> np.ndarray:
+    """(n,) median of ``values`` over each label 0..n-1 (each label present): one sort instead of
+    a ``np.median`` per cluster (the same values: the middle one, or the mean of the two middle)."""
+    order = np.lexsort((values, labels))
+    counts = np.bincount(labels, minlength=n)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    v = values[order]
+    hi = v[starts + counts // 2]
+    lo = v[starts + np.maximum(counts - 1, 0) // 2]
+    return np.where(counts % 2 == 1, hi, (lo + hi) / 2)
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
