@@ -34,10 +34,12 @@ from safetensors.torch import load_file
 from cage_reactive_ddpg.networks import Actor
 from cage_reactive_ddpg.policy import load_policy, shipped_path
 pol = load_policy(); m = pol.metadata
-actor = Actor(pol.layout.size, m["network"]["actor_hidden"]); actor.load_state_dict(load_file(str(shipped_path())))
+n = m["network"]
+actor = Actor(n["obs_dim"], n["actor_hidden"], residual=n.get("residual", False))
+actor.load_state_dict(load_file(str(shipped_path())))
 torch.set_num_threads(1)
 with torch.no_grad():
-    for o in np.ones((1000, pol.layout.size), np.float32):
+    for o in np.ones((1000, n["obs_dim"]), np.float32):   # a residual policy: the base action is the last input
         actor(torch.from_numpy(o))
 """
 REPORT = """

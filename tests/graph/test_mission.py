@@ -74,7 +74,7 @@ def test_residual_policy_raw_in_a_current_in_the_graph_ends_as_offline(ros_env, 
     """The residual policy without the shield (``--shield off``): policy_node gives it the flown
     baseline's action as its base (drift from the odometry twist, the returns' motion, the final
     approach) through ``cage_sim.driver``, as offline; same outcome, decisions and final pose."""
-    weights = FLS.with_name("policy_residual.safetensors")
+    weights = FLS.with_name("policy.safetensors")             # the shipped default: a residual policy
     rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(weights),
                                  "--shield", "off", "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0",
                                  "--timeout", "120", "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")

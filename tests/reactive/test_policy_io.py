@@ -9,6 +9,7 @@ from cage_sim.mission import EnvConfig
 from cage_sim.observation import ObservationLayout
 from cage_sim.vehicle import VehicleParams
 
+from cage_reactive_ddpg.inference import with_base
 from cage_reactive_ddpg.networks import Actor
 from cage_reactive_ddpg.policy import PolicyLoadError, load_policy, save_policy, shipped_path
 
@@ -134,11 +135,13 @@ def test_numpy_inference_equals_torch_on_the_shipped_policy():
     from safetensors.torch import load_file
     pol = load_policy()
     meta = pol.metadata
-    actor = Actor(meta["network"]["obs_dim"], meta["network"]["actor_hidden"], meta["action"]["dim"])
+    actor = Actor(meta["network"]["obs_dim"], meta["network"]["actor_hidden"], meta["action"]["dim"],
+                  residual=meta["network"]["residual"])
     actor.load_state_dict(load_file(str(shipped_path())))
     obs = mission_observations()
+    base = pol.residual_base.act(obs) if pol.residual_base is not None else None   # the default is residual
     with torch.no_grad():
-        expected = actor(torch.from_numpy(obs)).numpy()
+        expected = actor(torch.from_numpy(with_base(obs, base))).numpy()
     got = pol.act(obs)
     assert got.dtype == np.float32 and got.shape == expected.shape
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
