@@ -348,3 +348,50 @@ def test_nearest_distance_is_the_definition_for_returns_that_move():
     assert np.allclose(nearest_distance(pts, times, rel, q), want, rtol=0, atol=1e-12)
     assert np.isinf(nearest_distance(pts, times, np.zeros((0, 2)), np.zeros((0, 2)))).all()
 
+
+def test_nearest_distance_bit_for_bit_with_static_and_moving_returns_mixed():
+    # The returns that share the first one's velocity (static ones: the drift) are shifted as one;
+    # the rest one by one: both must give the plain formula's very bits, in any order of the two.
+    rng = np.random.default_rng(11)
+    pts, times = rng.uniform(-6, 6, (30, 20, 2)), np.linspace(0.5, 10.0, 20)[None, :]
+    q = rng.uniform(-10, 10, (40, 2))
+    drift = np.array([-0.3, 0.2])
+    for moving in (np.zeros(40, bool), rng.random(40) < 0.2, np.arange(40) == 0):
+        rel = np.tile(drift, (40, 1))
+        rel[moving] -= rng.uniform(-0.6, 0.6, (int(moving.sum()), 2))
+        dx = pts[..., 0, None] + times[..., None] * rel[:, 0] - q[:, 0]
+        dy = pts[..., 1, None] + times[..., None] * rel[:, 1] - q[:, 1]
+        assert np.array_equal(nearest_distance(pts, times, rel, q), np.sqrt((dx * dx + dy * dy).min(axis=-1)))
+
+
+def test_point_segment_distance_is_the_definition():
+    from cage_sim.perception import _point_segment_distance
+    rng = np.random.default_rng(12)
+    p, a = rng.uniform(-10, 10, (25, 2)), rng.uniform(-10, 10, (30, 2))
+    b = a + rng.uniform(-2, 2, (30, 2)) * (rng.random((30, 1)) < 0.8)        # some zero-length segments
+    want = []
+    for x in p:
+        best = np.inf
+        for u, v in zip(a, b):
+            ab = v - u
+            s = 0.0 if not ab.any() else min(1.0, max(0.0, float(np.dot(x - u, ab) / np.dot(ab, ab))))
+            best = min(best, float(np.hypot(*(x - (u + s * ab)))))
+        want.append(best)
+    assert np.allclose(_point_segment_distance(p, a, b), want, rtol=0, atol=1e-12)
+
+
+def test_shield_given_the_controllers_action_decides_as_computing_it():
+    # A residual policy's base is the fallback's own action on this perception; handing it to the
+    # shield (stalled: the controller flies; open water: likewise) must change nothing.
+    from cage_sim.driver import same_decisions
+    from cage_sim.perception import Perception
+    shield = SafetyShield(Constant(0.6))
+    p = Perception(np.array([(4.0, 1.0), (5.0, -2.0), (3.0, 3.0)]), drift=np.array([-0.2, 0.3]))
+    for percept in (p, Perception(np.zeros((0, 2)), drift=np.array([0.1, 0.0]))):
+        own = shield.fallback.decide(12.0, 0.4, percept)
+        assert shield.check(0.6, 12.0, 0.4, percept, stalled=True) == \
+            shield.check(0.6, 12.0, 0.4, percept, stalled=True, controller_action=own)
+        assert shield.check(0.6, 12.0, 0.4, percept, stalled=True, controller_action=0.123) != \
+            shield.check(0.6, 12.0, 0.4, percept, stalled=True)       # it is really used
+    assert same_decisions(ArcController(), ArcController()) and not same_decisions(ArcController(), ArcController(horizon=8))
+

@@ -183,17 +183,35 @@ def nearest_distance(points: np.ndarray, times: np.ndarray, relative: np.ndarray
     """Distance from each point flown to its nearest return, each return seen from the drifting
     vehicle: ``points`` [..., 2] reached at ``times`` (broadcast to [...]), K ``returns`` [K, 2]
     with the vehicle's velocity ``relative`` to each [K, 2] -> [...]: min_k |p + t rel_k - q_k|.
-    Why it is written this way (most of a decision's time with a memory's 100+ returns): per
-    coordinate, the big [..., K] arrays are made once and then worked in place (subtract, square,
-    sum: about twice as fast as fresh temporaries, and the same operations in the same order, so
-    bit-identical to ``sqrt(min(dx * dx + dy * dy))``); the square root after the minimum. Inf
-    with no return. One function for the baseline's rollouts and the shield's."""
-    t = np.asarray(times)[..., None]
-    dx = points[..., 0, None] + t * relative[:, 0]
-    dx -= returns[:, 0]
+    Why it is written this way (most of a decision's time with a memory's 100+ returns): the
+    returns that share the first one's relative velocity (usually all the static ones: the drift)
+    see the points shifted once, ``p + t rel`` made on [...] instead of on [..., K]; the others
+    are shifted per return. Every element is the same operations in the same order as
+    ``sqrt(min_k(dx * dx + dy * dy))`` with ``dx = p + t rel_k - q_k``, and a minimum over two
+    groups is the minimum over all, so the result is bit-identical to that. Inf with no return.
+    One function for the baseline's rollouts and the shield's."""
+    times = np.asarray(times)
+    if len(returns) == 0:
+        return np.full(np.broadcast_shapes(points.shape[:-1], times.shape), np.inf)
+    shared = (relative == relative[0]).all(axis=1)
+    r = relative[0]
+    best = _min_squared(points[..., 0] + times * r[0], points[..., 1] + times * r[1], returns[shared], 1)
+    if not shared.all():
+        t, rel = times[..., None], relative[~shared]
+        best = np.minimum(best, _min_squared(points[..., 0, None] + t * rel[:, 0],
+                                             points[..., 1, None] + t * rel[:, 1], returns[~shared], 0))
+    return np.sqrt(best)
+
+
+def _min_squared(x: np.ndarray, y: np.ndarray, returns: np.ndarray, per_point: int) -> np.ndarray:
+    """min_k (x - qx_k)^2 + (y - qy_k)^2 over ``returns`` [K, 2]; ``x``, ``y`` are [...] when
+    ``per_point`` (one shift for all returns) else [..., K]. The [..., K] arrays are made once per
+    coordinate and worked in place (about twice as fast as fresh temporaries)."""
+    if per_point:
+        x, y = x[..., None], y[..., None]
+    dx = x - returns[:, 0]
     np.square(dx, out=dx)
-    dy = points[..., 1, None] + t * relative[:, 1]
-    dy -= returns[:, 1]
+    dy = y - returns[:, 1]
     np.square(dy, out=dy)
     dx += dy
-    return np.sqrt(dx.min(axis=-1, initial=np.inf))
+    return dx.min(axis=-1, initial=np.inf)

@@ -103,6 +103,12 @@ def residual_base(policy) -> ArcController | None:
     return getattr(policy, "residual_base", None)
 
 
+def same_decisions(a: ArcController, b: ArcController) -> bool:
+    """Whether two controllers decide alike from the same (dist, err, perception): the same
+    parameters and vehicle (``decide`` reads nothing else), so one's action stands for the other's."""
+    return a is b or (a.tunables() == b.tunables() and a.vehicle == b.vehicle)
+
+
 def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[Moment]) -> tuple[np.ndarray, np.ndarray]:
     """Actions (B,) clipped to [-1, 1] and shielded flags (B,) for drivers sharing one policy: one
     batched forward of the learned policy, then each vehicle's shield or baseline with its own
@@ -127,19 +133,23 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
         seen.append((float(dist), float(err), perceive(ctrl.returns(o), mo.pose, mo.t, drift, mo.final, d.motion)))
     if base is None and shield is None:          # the classical baseline
         return np.clip([ctrl.decide(*s) for s in seen], -1.0, 1.0), np.zeros(n, dtype=bool)
+    based = None
     if base is not None:
-        raw = learned.act_residual(obs, np.array([base.decide(*s) for s in seen]))
+        based = [base.decide(*s) for s in seen]
+        raw = learned.act_residual(obs, np.array(based))
     else:
         raw = learned.act(obs)
     raw = np.asarray(raw, dtype=np.float64).reshape(n, -1)[:, 0]
     if shield is None:
         return np.clip(raw, -1.0, 1.0), np.zeros(n, dtype=bool)
+    if based is not None and not same_decisions(base, shield.fallback):
+        based = None
     out, flags = np.empty(n), np.zeros(n, dtype=bool)
     for j, (d, mo, (dist, err, p)) in enumerate(zip(drivers, moments, seen)):
         before = shield.interventions
         stalled = shield.recover and d.stall is not None and mo.remaining is not None \
             and d.stall.update(mo.remaining)
-        out[j] = shield.check(raw[j], dist, err, p, stalled, d.commit)
+        out[j] = shield.check(raw[j], dist, err, p, stalled, d.commit, None if based is None else based[j])
         flags[j] = shield.interventions != before
     return np.clip(out, -1.0, 1.0), flags
 

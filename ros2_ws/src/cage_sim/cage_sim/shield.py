@@ -272,8 +272,10 @@ class SafetyShield:
         return self.check(float(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0]), dist, err, p)
 
     def check(self, action: float, dist: float, err: float, p: Perception, stalled: bool = False,
-              commit: Commitment | None = None) -> float:
+              commit: Commitment | None = None, controller_action: float | None = None) -> float:
         """``action`` (the policy's, already computed) if it is safe, else the nearest safe one.
+        ``controller_action``: ``fallback.decide(dist, err, p)`` when the caller has it already (a
+        residual policy's base is that very action), so it is not computed twice.
         ``stalled`` (the vehicle's ``StallWatch`` says so): the controller's action instead, checked
         like the policy's. ``commit`` (the vehicle's ``Commitment``): an unsafe action right after an
         override is replaced first by the next action of the manoeuvre that made that override safe,
@@ -286,15 +288,18 @@ class SafetyShield:
         (the shipped study policy turned hard left with the waypoint dead ahead), or may circle a goal."""
         a = float(np.clip(action, -1.0, 1.0))
         self.decisions += 1
+        def controller() -> float:
+            return float(self.fallback.decide(dist, err, p)) if controller_action is None else float(controller_action)
+
         if self.open_water and len(p.returns) == 0:
-            b = self.fallback.decide(dist, err, p)
+            b = controller()
             self.interventions += int(abs(b - a) > 0.05)
             self._remember(commit, -1, 0)
             return b
         guarded = stalled or (self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
                                                                         self.fallback.goal_pass, p.drift))
         if guarded:
-            a = float(self.fallback.decide(dist, err, p))   # checked below like any other action
+            a = controller()                                # checked below like any other action
             self.recoveries += int(stalled)
             self.approaches += int(not stalled)
             self.interventions += 1
