@@ -51,6 +51,13 @@ class ArcController:
         period = self.vehicle.decision_period
         self._times = np.repeat(np.arange(self.horizon) * period, 2) + np.tile([0.5 * period, period], self.horizon)
         self._reach = float(np.linalg.norm(self._traj, axis=-1).max()) + self.comfort
+        # The candidates share their first decisions (hold a for k decisions: the same arc for every
+        # k), so 800 of their 1380 (point, time) pairs are distinct: the clearance is computed once
+        # for each distinct one and read back for every candidate (the same values, 40 % less work).
+        when = np.broadcast_to(self._times[None, :], self._traj.shape[:2])
+        key = np.concatenate([self._traj.reshape(-1, 2), when.reshape(-1, 1)], axis=1)
+        distinct, self._inverse = np.unique(key, axis=0, return_inverse=True)
+        self._distinct_pts, self._distinct_t = distinct[:, :2], distinct[:, 2]
 
     def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
         """Body-frame rollouts: hold action a for k decisions then fly straight, or fly straight for
@@ -113,7 +120,9 @@ class ArcController:
             if len(p.returns) else np.zeros(0, dtype=bool)
         if near.any():   # each return as seen from the vehicle drifting past it: q - (drift - u) t
             pts, rel = p.returns[near], p.relative()[near]
-            clear_along = nearest_distance(traj, self._times[None, :], rel, pts)       # [cand, point]
+            fixed = nearest_distance(self._distinct_pts, self._distinct_t, rel, pts)[self._inverse.reshape(-1)]
+            aimed = nearest_distance(traj[-1:], self._times[None, :], rel, pts)
+            clear_along = np.concatenate([fixed.reshape(self._traj.shape[:2]), aimed])  # [cand, point]
         else:
             clear_along = np.full(traj.shape[:2], np.inf)
         if p.final:   # the mission ends on passing through the goal: what comes after is never flown
