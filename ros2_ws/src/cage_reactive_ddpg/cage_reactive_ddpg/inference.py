@@ -63,6 +63,29 @@ class NumpyActor:
         return residual_action(base, out).astype(np.float32)
 
 
+class MeanActor:
+    """Several actors of one shape as one policy: the mean of their actions (an ensemble of training
+    seeds of one config, ``ensemble.py``). Why: seeds of the same config differ most where the
+    policy is least sure (near a net pushed in by a strong current), and the mean keeps what they
+    agree on; for residual actors, each member's action is its own move of the same base action."""
+
+    def __init__(self, members: list[NumpyActor]):
+        if len(members) < 2:
+            raise ValueError(f"an ensemble needs at least 2 members, got {len(members)}")
+        first = members[0]
+        for i, m in enumerate(members[1:], 1):
+            if (m.obs_dim, m.act_dim, m.residual) != (first.obs_dim, first.act_dim, first.residual):
+                raise ValueError(f"member {i}: obs_dim / act_dim / residual {(m.obs_dim, m.act_dim, m.residual)} "
+                                 f"differ from member 0's {(first.obs_dim, first.act_dim, first.residual)}")
+        self.members = list(members)
+        self.residual, self.obs_dim, self.act_dim = first.residual, first.obs_dim, first.act_dim
+        self.hidden = first.hidden
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """(D,) -> (A,) or (B, D) -> (B, A), float32 in [-1, 1]: the members' mean action."""
+        return np.mean([m(obs) for m in self.members], axis=0).astype(np.float32)
+
+
 def residual_action(base, r):
     """The action a residual ``r`` in [-1, 1] makes of a ``base`` action in [-1, 1]: ``r`` is the
     share of the way from the base to the end of the range on its side (r = 0: the base; r = +1:

@@ -28,7 +28,7 @@ from cage_sim.observation import ObservationLayout, layout_from_dict
 from cage_sim.vehicle import VehicleParams
 
 from . import __version__
-from .inference import NumpyActor, read_state, with_base
+from .inference import MeanActor, NumpyActor, read_state, with_base
 
 if TYPE_CHECKING:   # the trainer's side only; loading a policy never imports torch
     from .networks import Actor
@@ -100,7 +100,7 @@ def _json_default(o: Any):
 class LoadedPolicy:
     """A trained actor behind the ``cage_sim.controller.Policy`` protocol (NumPy inference)."""
 
-    actor: NumpyActor
+    actor: NumpyActor | MeanActor   # MeanActor: an ensemble file (``ensemble.py``)
     layout: ObservationLayout
     metadata: dict
     path: Path
@@ -210,8 +210,28 @@ def load_policy(path: str | Path | None = None, layout: ObservationLayout | None
         act_dim = int(meta["action"].get("dim", 1))
     except (TypeError, ValueError) as err:
         raise PolicyLoadError(f"policy metadata {mpath}: network.actor_hidden / action.dim: {err}") from None
-    _check_state(expected_shapes(layout.size + residual, hidden, act_dim), state, wpath)
-    return LoadedPolicy(NumpyActor(state, residual), layout, meta, wpath, base)
+    expected = expected_shapes(layout.size + residual, hidden, act_dim)
+    members = net.get("ensemble", 0)
+    if members:
+        actor = _ensemble_actor(state, expected, members, residual, wpath)
+    else:
+        _check_state(expected, state, wpath)
+        actor = NumpyActor(state, residual)
+    return LoadedPolicy(actor, layout, meta, wpath, base)
+
+
+def member_key(i: int, name: str) -> str:
+    """The name of member ``i``'s tensor ``name`` in an ensemble file."""
+    return f"members.{i}.{name}"
+
+
+def _ensemble_actor(state: dict, expected: dict, members, residual: bool, wpath: Path) -> MeanActor:
+    """An ensemble file's actors (``network.ensemble`` members of the network in its metadata,
+    tensors ``members.<i>.<name>``) as one MeanActor; refused when a member's tensors do not fit."""
+    if not isinstance(members, int) or isinstance(members, bool) or members < 2:
+        raise PolicyLoadError(f"policy {wpath}: network.ensemble is {members!r}, expected a member count >= 2")
+    _check_state({member_key(i, k): v for i in range(members) for k, v in expected.items()}, state, wpath)
+    return MeanActor([NumpyActor({k: state[member_key(i, k)] for k in expected}, residual) for i in range(members)])
 
 
 def _residual_base(meta: dict, layout, vehicle: VehicleParams, mpath: Path) -> ArcController:
