@@ -18,6 +18,18 @@ def test_waypoints_advance_when_reached_or_passed():
     assert t.segment_offset(10.0, 34.0) == pytest.approx(4.0)
 
 
+def test_a_later_waypoint_within_reach_is_flown_on_from():
+    t = RouteTracker((0.0, 0.0), [(0.0, 30.0), (10.0, 30.0), (20.0, 30.0)])
+    assert t.advance(19.0, 29.0) and t.at_last            # came to the goal round the first two
+    assert t.remaining(19.0, 29.0) == pytest.approx(2 ** 0.5)
+    t = RouteTracker((0.0, 0.0), [(0.0, 30.0), (10.0, 30.0), (20.0, 30.0)])
+    assert t.advance(9.0, 28.5) and t.index == 2          # at the middle one: past it, on to the goal
+    assert t.segment_offset(15.0, 30.0) == pytest.approx(0.0)
+    assert not t.advance(10.0, 20.0) and t.index == 2     # never back to an earlier one
+    t = RouteTracker((0.0, 0.0), [(0.0, 30.0), (10.0, 30.0), (20.0, 30.0)])
+    assert not t.advance(18.5, 27.0) and t.index == 0     # 3.4 m from the goal: not within reach (2 m)
+
+
 def test_following_the_route_asks_for_nothing():
     t, w = tracker(), ReplanWatch(after=10, min_progress=2.0, max_offset=8.0)
     for k in range(51):                                                 # to the goal at (20, 30)

@@ -3,7 +3,9 @@
 One definition used by the mission judge (env, evaluator, simulator node) and by the policy node, so
 the waypoint the policy steers to in the node graph is the one it steered to in offline evaluation.
 An intermediate waypoint counts as reached within ``waypoint_radius`` or once the vehicle has passed
-it (its projection on the segment goes beyond the end); the last one is the goal.
+it (its projection on the segment goes beyond the end); the last one is the goal. A vehicle within
+``waypoint_radius`` of a later waypoint (the goal included) goes on from there: the earlier ones it
+went round are not flown back to.
 """
 from __future__ import annotations
 
@@ -36,8 +38,18 @@ class RouteTracker:
         return self.index == len(self.route) - 1
 
     def advance(self, x: float, y: float) -> bool:
-        """Move past every waypoint reached or passed from (x, y); True if the index changed."""
+        """Move past every waypoint reached or passed from (x, y); True if the index changed.
+
+        Why the jump to a later waypoint within reach: the reactive layer leaves the route round
+        what the map does not show, and sometimes comes to a later waypoint, or to the goal itself,
+        before an earlier one. Following the route in order would then turn it back, away from the
+        goal, for a waypoint that no longer matters (sea matrix, 0.5 m/s near the net: missions
+        that came within 1 m of the goal, flew away and timed out)."""
         start = self.index
+        ahead = self._within_reach_ahead(x, y)
+        if ahead > self.index:
+            self.prev = self.route[ahead - 1].copy()
+            self.index = ahead
         while not self.at_last:
             b = self.route[self.index]
             if math.hypot(b[0] - x, b[1] - y) < self.waypoint_radius or self._fraction(x, y) >= 1.0:
@@ -46,6 +58,13 @@ class RouteTracker:
             else:
                 break
         return self.index != start
+
+    def _within_reach_ahead(self, x: float, y: float) -> int:
+        """The last waypoint after the current one within ``waypoint_radius`` of (x, y), else the
+        current index."""
+        later = self.route[self.index + 1:]
+        near = np.flatnonzero(np.hypot(later[:, 0] - x, later[:, 1] - y) < self.waypoint_radius)
+        return self.index + 1 + int(near[-1]) if len(near) else self.index
 
     def _fraction(self, x: float, y: float) -> float:
         """How far along the current segment (x, y) projects: 0 at its start, 1 at its end. A
