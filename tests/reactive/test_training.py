@@ -2,6 +2,7 @@
 config), refuses a used --out and bad files in one line; config overrides; the vector env speaks
 gymnasium's VectorEnv API."""
 import csv
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -117,10 +118,16 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides=["tau=fast"])
 
 
-@pytest.mark.parametrize("name", ["fast", "sea_fls", "sea_guided", "sea_guided_fls", "sea_guided_mb360", "sea_guided_scanning",
-                                  "sea_study", "shipped", "study", "study_extra_layer", "study_low_lr"])
+TRAINING_CONFIGS = sorted(p.stem for p in (Path(config_mod.__file__).parents[1] / "config").glob("*.yaml")
+                          if not p.stem.startswith("sweep"))     # sweep*.yaml are search spaces (test_sweep)
+
+
+def test_the_shipped_configs_are_found():
+    assert {"sea_residual_replay", "sea_residual_replay_fls", "sea_guided_fls", "shipped"} <= set(TRAINING_CONFIGS)
+
+
+@pytest.mark.parametrize("name", TRAINING_CONFIGS)
 def test_every_shipped_training_config_builds_and_builds_its_env(name):
-    from pathlib import Path
     path = Path(config_mod.__file__).parents[1] / "config" / f"{name}.yaml"
     cfg = config_mod.build(file=path)
     env = cfg.env_config()
