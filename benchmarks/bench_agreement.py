@@ -8,7 +8,7 @@ of decisions, and ends with one JSON line. Target (issue 6): rates within 2 poin
 
     .venv/bin/python benchmarks/bench_agreement.py [--missions 100] [--scenario cage] [--policy baseline]
     .venv/bin/python benchmarks/bench_agreement.py --missions 20 --scenario 'cage?current=0.5&obstacles=small' \
-        --policy <weights/policy_fls.safetensors> --sensor fls --shield off     # a set with collisions
+        --policy <weights/policy_fls_guided.safetensors> --sensor fls --shield off     # a set with collisions
 
 Both sides decide through ``cage_sim.driver`` (the offline side with ``rollout.drive_episode``) with the
 policy's own sensor profile and observation. ``--noise off`` (default) switches the sonar's noise,
