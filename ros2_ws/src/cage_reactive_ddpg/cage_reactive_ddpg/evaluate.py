@@ -237,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--sensor", default=None,
                     help="sonar profile for the baseline alone (a policy uses the one it was trained with)")
-    ap.add_argument("--matrix", default=None, help="sea-condition matrix: a name (sea, sea_small, tiny) or a YAML file")
+    ap.add_argument("--matrix", default=None, help="sea-condition matrix: a name (sea, sea_small, tiny, strong) or a YAML file")
     ap.add_argument("--drivers", default="raw,shield,baseline",
                     help="with --matrix: which of raw, shield, baseline to run (comma-separated)")
     ap.add_argument("--out", default=None, help="with --matrix: output prefix for .md/.csv/.json "

@@ -132,6 +132,8 @@ MATRICES: dict[str, list[Condition]] = {
     "sea_small": grid(currents=(0.0, 0.5), goals=("any",), schools=(0,)) +  # 4 + 4 cells: the corners
     grid(currents=(0.25,), obstacles=("small",), goals=GOALS, schools=(0, 3)),
     "tiny": [Condition(), Condition(0.5, "small", "near_net", 1)],
+    # beyond the training range (0-0.5 m/s): exposed sites ("0.5 m/s and more"), a hard and an easy cell
+    "strong": [Condition(0.75, "small", "near_net", 3), Condition(0.75, "standard", "any", 0)],
 }
 
 
