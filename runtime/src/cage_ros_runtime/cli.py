@@ -379,6 +379,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def interrupted(exc: Optional[BaseException]) -> bool:
+    """Whether a Ctrl-C lies under ``exc``: one that lands while a module is imported can come out
+    wrapped (Python 3.11 raises ``RuntimeError: Error calling __set_name__ ...`` from it when it hits
+    a class body, as in cyclonedds' ``GuardCondition``), and it must end the command as quietly."""
+    seen = 0
+    while exc is not None and seen < 20:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc, seen = exc.__cause__ or exc.__context__, seen + 1
+    return False
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     args = build_parser().parse_args(argv)
     try:
@@ -391,7 +403,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except Exception as exc:  # noqa: BLE001 - a CLI prints one line, never a traceback
         from rclpy.exceptions import NotInitializedException
         from rclpy.executors import ExternalShutdownException
-        if isinstance(exc, (NotInitializedException, ExternalShutdownException)):
+        if isinstance(exc, (NotInitializedException, ExternalShutdownException)) or interrupted(exc):
             return 0  # SIGINT/SIGTERM shut the context down mid-command: a quiet end, as ros2cli
         print(f'ros2 {args.command}: error: {type(exc).__name__}: {exc}', file=sys.stderr)
         return 1
