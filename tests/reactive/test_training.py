@@ -118,7 +118,8 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides=["tau=fast"])
 
 
-TRAINING_CONFIGS = sorted(p.stem for p in (Path(config_mod.__file__).parents[1] / "config").glob("*.yaml")
+CONFIG_DIR = Path(config_mod.__file__).parents[1] / "config"
+TRAINING_CONFIGS = sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")
                           if not p.stem.startswith("sweep"))     # sweep*.yaml are search spaces (test_sweep)
 
 
@@ -128,7 +129,7 @@ def test_the_shipped_configs_are_found():
 
 @pytest.mark.parametrize("name", TRAINING_CONFIGS)
 def test_every_shipped_training_config_builds_and_builds_its_env(name):
-    path = Path(config_mod.__file__).parents[1] / "config" / f"{name}.yaml"
+    path = CONFIG_DIR / f"{name}.yaml"
     cfg = config_mod.build(file=path)
     env = cfg.env_config()
     assert cfg.total_steps > 0 or cfg.episodes > 0
