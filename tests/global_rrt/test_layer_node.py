@@ -64,7 +64,7 @@ def test_layer_learns_from_scans_and_the_plan_avoids_it(rig):
         odom_pub.publish(odom)
         probe.until(lambda: False, 0.15)
         scan_pub.publish(scan_msg(ranges, sonar, k * 1_000_000_000))
-        if probe.until(learnt, 0.3 if k >= 7 else 0.15):
+        if probe.until(learnt, 0.15):
             break
     assert probe.until(learnt, 10), node.output
     cyl = [m for m in markers[-1].markers if m.type == Marker.CYLINDER]

@@ -108,5 +108,8 @@ def test_a_ctrl_c_wrapped_by_an_import_ends_quietly(monkeypatch, capsys) -> None
     parser.set_defaults(func=wrapped, command="topic")
     monkeypatch.setattr(cli, "build_parser", lambda: parser)
     assert cli.main([]) == 0 and "error" not in capsys.readouterr().err
-    parser.set_defaults(func=lambda _a: (_ for _ in ()).throw(RuntimeError("a real failure")))
+    def failing(_args):
+        raise RuntimeError("a real failure")
+
+    parser.set_defaults(func=failing)
     assert cli.main([]) == 1 and "a real failure" in capsys.readouterr().err
