@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 from cage_sim.mission import EnvConfig
+from cage_sim.process_vec_env import ProcessVecEnv
 from cage_sim.vec_env import CageNavVecEnv
 
 from cage_reactive_ddpg import config as config_mod
@@ -68,9 +69,50 @@ def test_a_replay_that_never_fires_leaves_the_missions_as_they_were():
     assert len(seen[0]) > 5 and seen[0] == seen[1]
 
 
-def test_trainer_records_the_replay(tmp_path, tiny_overrides):
+def test_failed_missions_are_flown_again_in_the_worker_they_failed_in():
+    """The replay pool lives in the parent: a worker's failed mission comes back to that worker and
+    starts at its next mission end (one end later than in one process), at most max_tries times."""
+    replay = HardCaseReplay(1.0, max_tries=2)
+    env = ProcessVecEnv(2, 2, "cage", EnvConfig(), seed=4, replay=replay)   # study sonar: no noise
+    try:
+        obs, _ = env.reset()
+        starts = [[obs[0]], [obs[1]]]          # each mission's first observation, env by env
+        for _ in range(1500):                  # a hard left turn for ever: every mission fails
+            obs, _, term, trunc, infos = env.step(np.ones((2, 1)))
+            assert not any(o == "goal" for o in infos["outcome"])
+            for i in np.flatnonzero(term | trunc):
+                starts[i].append(obs[i])
+            if min(len(s) for s in starts) >= 5:
+                break
+        for s in starts:                       # A, B, then A and B again (try 2), then a fresh C
+            assert np.array_equal(s[2], s[0]) and np.array_equal(s[3], s[1])
+            assert not any(np.array_equal(s[4], t) for t in s[:4])
+        assert not np.array_equal(starts[0][0], starts[1][0])
+        stats = replay.stats()
+        assert stats["replayed"] >= 4 and stats["offered"] >= 8 and stats["kept"] >= 4
+    finally:
+        env.close()
+
+
+def test_a_replay_that_never_fires_leaves_the_workers_missions_as_they_were():
+    envs = [ProcessVecEnv(3, 2, "cage", EnvConfig(), seed=9, replay=r) for r in (None, HardCaseReplay(0.0))]
+    try:
+        for e in envs:
+            e.reset()
+        for _ in range(150):
+            a = np.full((3, 1), 0.7)
+            r0, r1 = envs[0].step(a), envs[1].step(a)
+            assert all(np.array_equal(x, y) for x, y in zip(r0[:4], r1[:4]))
+        assert envs[1].replay.stats()["offered"] > 3
+    finally:
+        for e in envs:
+            e.close()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_trainer_records_the_replay(tmp_path, tiny_overrides, workers):
     over = {**tiny_overrides, "scenario": "cage", "total_steps": 600, "prefill_steps": 300, "n_envs": 4,
-            "eval_episodes": 0, "replay_fraction": 0.5}
+            "eval_episodes": 0, "replay_fraction": 0.5, "env_workers": workers}
     tr = Trainer(config_mod.build("fast", overrides=over), tmp_path, progress=False)
     tr.run()
     stats = json.loads((tmp_path / "policy.json").read_text())["training"]["hard_case_replay"]

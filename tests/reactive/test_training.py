@@ -77,8 +77,8 @@ def test_env_workers_fill_the_same_buffer_and_learn_beside_the_envs(tmp_path, ti
     d, _ = _train(tmp_path, "learn1", {**over, "total_steps": 800, "prefill_steps": 200})
     assert 0 <= d.updates - c.updates <= 4 and c.updates > 500   # the first step's updates wait for a batch
     assert all(torch.isfinite(v).all() for v in load_file(str(c.out / "policy.safetensors")).values())
-    with pytest.raises(ValueError, match="env_workers"):
-        config_mod.build("study", overrides={**over, "env_workers": 2, "replay_fraction": 0.2})
+    with pytest.raises(ValueError, match="env_workers: must be between 1 and n_envs"):
+        config_mod.build("study", overrides={**over, "env_workers": 5})
 
 
 def test_resume_continues_from_checkpoint(tmp_path, tiny_overrides):

@@ -116,8 +116,6 @@ class TrainConfig:
             raise ValueError("replay_fraction: must be in [0, 1]; replay_max_tries: >= 1")
         if not 1 <= self.env_workers <= self.n_envs:
             raise ValueError(f"env_workers: must be between 1 and n_envs ({self.n_envs}), got {self.env_workers}")
-        if self.env_workers > 1 and self.replay_fraction > 0:
-            raise ValueError("env_workers > 1: hard-case replay (replay_fraction > 0) needs one env process")
         if self.bc_weight < 0:
             raise ValueError("bc_weight: must be >= 0")
         if self.total_steps <= 0 and self.episodes <= 0:

@@ -127,7 +127,8 @@ class Trainer:
         self.rng = np.random.default_rng(cfg.seed)
         self.env_cfg = cfg.env_config()
         self.wp_fn = waypoint_fn(cfg.planner)
-        self.replay = None
+        self.replay = HardCaseReplay(cfg.replay_fraction, cfg.replay_max_tries, seed=cfg.seed) \
+            if cfg.replay_fraction > 0 else None
         # Expert guidance: the classical baseline labels every transition (on the observation alone,
         # or as it is flown: FlownLabeller); a share of the episodes is flown by it (demonstrations).
         # A residual actor reads that label as its base action.
@@ -139,11 +140,9 @@ class Trainer:
             obs_dim = 1
         elif cfg.env_workers > 1:   # the envs and the expert's rollouts in worker processes (labels come back)
             self.envs = ProcessVecEnv(cfg.n_envs, cfg.env_workers, sampler(cfg.scenario), self.env_cfg, self.wp_fn,
-                                      seed=cfg.seed, labeller=self.labeller)
+                                      seed=cfg.seed, labeller=self.labeller, replay=self.replay)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         else:
-            self.replay = HardCaseReplay(cfg.replay_fraction, cfg.replay_max_tries, seed=cfg.seed) \
-                if cfg.replay_fraction > 0 else None
             self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed,
                                       replay=self.replay)
             obs_dim = int(self.envs.single_observation_space.shape[0])

@@ -17,11 +17,20 @@ numbers of workers differ (noise and the scenarios of each worker's first env).
 
 Workers are forked (Linux; they inherit the scenario sampler and route function, closures that
 cannot be pickled); they are daemons, so they end with the parent, and ``close()`` ends them early.
-Hard-case replay (a pool shared by all envs) is not supported across processes.
+
+Hard-case replay across processes: the pool (``replay``, the trainer's ``HardCaseReplay``) stays
+in the parent, one pool for every env as in one process. Each worker's env has a ``ReplayRelay``
+in its place: it reports every mission that ended (the scenario only for the outcomes the pool
+keeps) with the step's answer, and flies the missions the parent sent back before a fresh draw.
+The parent offers each report to the pool and draws once per ended mission, as ``CageNavVecEnv``
+does; a drawn mission goes to the worker it came from with the next step and starts there at that
+worker's next mission end: one mission end later than in one process, the share of re-flown
+episodes the same.
 """
 from __future__ import annotations
 
 import multiprocessing as mp
+from collections import deque
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -48,12 +57,38 @@ def env_info(infos: dict[str, Any], j: int) -> dict[str, Any]:
     return out
 
 
+class ReplayRelay:
+    """A worker's stand-in for the parent's hard-case replay pool (see the module doc): what
+    ``CageNavVecEnv`` offers goes out with the next answer, what the parent drew comes in."""
+
+    def __init__(self, keep: Sequence[str] | None = None):
+        self.keep = None if keep is None else tuple(keep)   # outcomes whose scenario the pool may keep
+        self.inbox: deque = deque()          # (scenario, tries) to fly next, oldest first
+        self.outbox: list = []               # (scenario or None, outcome, tries) since the last answer
+
+    def offer(self, scenario: Any, outcome: str, tries: int) -> None:
+        wanted = self.keep is None or outcome in self.keep
+        self.outbox.append((scenario if wanted else None, outcome, tries))
+
+    def draw(self) -> tuple[Any, int] | None:
+        return self.inbox.popleft() if self.inbox else None
+
+    def exchange(self, incoming: Sequence[tuple[Any, int]]) -> list:
+        """Take the parent's drawn missions; hand over the reports gathered since the last call."""
+        self.inbox.extend(incoming)
+        out, self.outbox = self.outbox, []
+        return out
+
+
 def _worker(conn, make: Callable[[], CageNavVecEnv], labeller) -> None:
     """One worker's loop: build its env, then answer commands until ``close`` (or the pipe ends)."""
     env = make()
 
     def labels(obs, infos):
         return None if labeller is None else labeller(obs, env.missions, finished(infos))
+
+    def relay(incoming) -> list:
+        return env.replay.exchange(incoming) if env.replay is not None else []
 
     try:
         while True:
@@ -62,8 +97,10 @@ def _worker(conn, make: Callable[[], CageNavVecEnv], labeller) -> None:
                 obs, infos = env.reset(seed=arg)
                 conn.send((obs, infos, labels(obs, infos)))
             elif cmd == "step":
-                obs, rew, term, trunc, infos = env.step(arg)
-                conn.send((obs, rew, term, trunc, infos, labels(obs, infos)))
+                actions, incoming = arg
+                relay(incoming)                   # before the step: a mission ending in it may fly one
+                obs, rew, term, trunc, infos = env.step(actions)
+                conn.send((obs, rew, term, trunc, infos, labels(obs, infos), relay(())))
             elif cmd == "rng_states":
                 conn.send(env.rng_states())
             elif cmd == "set_rng_states":
@@ -78,16 +115,16 @@ def _worker(conn, make: Callable[[], CageNavVecEnv], labeller) -> None:
 
 
 class ProcessVecEnv(VectorEnv):
-    """``n_envs`` missions over ``n_workers`` forked processes (``CageNavVecEnv``'s arguments, less
-    ``replay``, plus ``labeller``: ``driver.ObservationLabeller`` or ``FlownLabeller``, run in the
-    workers on every returned observation with the worker's missions; its actions in
-    ``infos["labels"]`` and, for the episodes that ended, on their last observation in
-    ``infos["final_labels"]`` (NaN elsewhere), each a (n_envs, 1) array)."""
+    """``n_envs`` missions over ``n_workers`` forked processes (``CageNavVecEnv``'s arguments; the
+    ``replay`` pool stays here, see the module doc), plus ``labeller``: ``driver.ObservationLabeller``
+    or ``FlownLabeller``, run in the workers on every returned observation with the worker's
+    missions; its actions in ``infos["labels"]`` and, for the episodes that ended, on their last
+    observation in ``infos["final_labels"]`` (NaN elsewhere), each a (n_envs, 1) array)."""
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     def __init__(self, n_envs: int, n_workers: int, scenario: Any = "cage", config=None, waypoint_fn=None,
-                 seed: int = 0, labeller=None):
+                 seed: int = 0, labeller=None, replay: Any = None):
         n_envs, n_workers = int(n_envs), int(n_workers)
         if not 1 <= n_workers <= n_envs:
             raise ValueError(f"env_workers: must be between 1 and n_envs ({n_envs}), got {n_workers}")
@@ -104,13 +141,17 @@ class ProcessVecEnv(VectorEnv):
         self.render_mode = None
         self.labels_on = labeller is not None
         self._waiting = False
+        self.replay = replay
+        self._drawn: list[list] = [[] for _ in self.slices]    # replay missions to send, per worker
+        keep = getattr(replay, "outcomes", None)     # None: every ended mission's scenario comes back
         seeds = self._seeds(seed)
         for idx in self.slices:
             parent, child = ctx.Pipe()
             part = [seeds[i] for i in idx]
 
             def make(n=len(idx), part=part):
-                return CageNavVecEnv(n, scenario, self.config, waypoint_fn, seed=part)
+                relay = ReplayRelay(keep) if replay is not None else None
+                return CageNavVecEnv(n, scenario, self.config, waypoint_fn, seed=part, replay=relay)
             p = ctx.Process(target=_worker, args=(child, make, labeller), daemon=True)
             p.start()
             child.close()
@@ -184,15 +225,26 @@ class ProcessVecEnv(VectorEnv):
         """Send this step's actions and return at once: the workers fly it while the caller does
         something else (the trainer: its network updates); ``step_wait()`` collects the answer."""
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs)
-        self._ask_async([("step", a[idx]) for idx in self.slices])
+        self._ask_async([("step", (a[idx], drawn)) for idx, drawn in zip(self.slices, self._drawn)])
+        self._drawn = [[] for _ in self.slices]
 
     def step_wait(self):
         if not self._waiting:
             raise RuntimeError("step_wait() without step_async()")
         self._waiting = False
         out = self._receive()
+        for w, o in enumerate(out):
+            self._pool(w, o[6])
         obs, rew, term, trunc = (np.concatenate([o[k] for o in out]) for k in range(4))
         return obs, rew, term, trunc, self._merge([o[4] for o in out], [o[5] for o in out])
+
+    def _pool(self, w: int, reports: list) -> None:
+        """Worker ``w``'s ended missions to the replay pool; one draw each, as in one process."""
+        for scenario, outcome, tries in reports:
+            self.replay.offer(scenario, outcome, tries)
+            again = self.replay.draw()
+            if again is not None:
+                self._drawn[w].append(again)
 
     def rng_states(self) -> list[dict]:
         """Every env's scenario generator state, in env order (the trainer's checkpoint)."""
