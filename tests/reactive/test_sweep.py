@@ -60,6 +60,18 @@ def test_seeds_reevaluated_on_the_same_fresh_missions(tmp_path, tiny_overrides):
     raw = json.loads((tmp_path / "ev" / "seeds_policy_raw.json").read_text())
     shield = json.loads((tmp_path / "ev" / "seeds_policy_shield.json").read_text())
     assert raw["shield"] is False and shield["shield"] is True
+    # --reuse: a run found in an earlier file on the same missions is taken from it, the others are
+    # flown; a file of other missions (another episode count) gives nothing
+    part = {**raw, "runs": raw["runs"][:1], "per_seed": [{**raw["per_seed"][0], "marker": 1}]}
+    (tmp_path / "part.json").write_text(json.dumps(part))
+    (tmp_path / "other.json").write_text(json.dumps({**part, "episodes_per_seed": 13}))
+    assert seeds_main([*runs, "--out", str(tmp_path / "ev2"), "--evaluate", "12", "--scenario", "study2d",
+                       "--planner", "none", "--weights", "policy",
+                       "--reuse", f"{tmp_path / 'other.json'},{tmp_path / 'part.json'}"]) == 0
+    again = json.loads((tmp_path / "ev2" / "seeds_policy_raw.json").read_text())
+    assert again["per_seed"][0].get("marker") == 1 and "marker" not in again["per_seed"][1]
+    assert again["per_seed"][1] == raw["per_seed"][1]               # flown again: the same missions
+    assert "marker" not in json.loads((tmp_path / "ev2" / "seeds_policy_shield.json").read_text())["per_seed"][0]
 
 
 def test_train_seeds_cli_refuses_used_out(tmp_path, capsys):

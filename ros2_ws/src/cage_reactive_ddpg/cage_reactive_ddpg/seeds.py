@@ -114,19 +114,42 @@ def write(summary: dict, out: Path, stem: str) -> None:
     (out / f"{stem}.md").write_text(table(summary) + "\n")
 
 
+def reused_rows(files: list[Path], episodes: int, seed: int, scenario: str, planner: str, weights: str,
+                shield: bool) -> dict[str, dict]:
+    """Rows of earlier ``reevaluate`` JSONs flown on the same missions by the same driver, by run
+    folder (the first file's row wins); files of another driver or other missions give none.
+
+    Why: a seed trained in a later session joins the table without flying the earlier seeds again
+    (1000 missions, raw and shielded, are minutes per seed)."""
+    want = {"episodes_per_seed": episodes, "eval_seed": seed, "scenario": scenario, "planner": planner,
+            "weights": weights, "shield": shield}
+    rows: dict[str, dict] = {}
+    for f in files:
+        s = json.loads(Path(f).read_text())
+        if all(s.get(k) == v for k, v in want.items()):
+            for run, row in zip(s["runs"], s["per_seed"]):
+                rows.setdefault(str(Path(run)), row)
+    return rows
+
+
 def reevaluate(runs: list[Path], episodes: int, seed: int, scenario: str, planner: str = "rrt",
-               weights: str = "policy", shield: bool = False) -> dict[str, Any]:
+               weights: str = "policy", shield: bool = False, reuse: dict[str, dict] | None = None) -> dict[str, Any]:
     """Every run's policy (``weights``: ``policy`` = the final one, ``best`` = the trainer's best
     checkpoint) on the same ``episodes`` missions drawn from ``seed``, raw or behind the shield.
 
     Why: the trainer's own evaluation is a few hundred episodes (a 95 % interval of +-3 points at
     93 %), too coarse to tell seeds apart, and the best checkpoint was chosen on it; fresh missions
-    from a seed never used in training give each seed a tight, unbiased figure."""
+    from a seed never used in training give each seed a tight, unbiased figure. ``reuse``
+    (``reused_rows``): the runs found there are not flown again."""
     from .evaluate import evaluate, load_driver
     from .policy import env_config_for
     per = []
     for r in runs:
         r = Path(r)
+        if reuse and str(r) in reuse:
+            per.append(reuse[str(r)])
+            print(f"[{r}] {weights}{' + shield' if shield else ''}: reused", file=sys.stderr, flush=True)
+            continue
         driver, _, meta = load_driver(str(r / f"{weights}.safetensors"), shield=shield)
         env = env_config_for(meta)                    # the policy's own sensor, layout and motion
         summary, _, _ = evaluate(driver, scenario, episodes, seed, env.motion, planner, keep_tracks=0, env=env)
@@ -208,6 +231,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenario", default="sea_dr")
     ap.add_argument("--planner", default="rrt")
     ap.add_argument("--weights", default="policy,best", help="with --evaluate: policy (final), best, or both")
+    ap.add_argument("--reuse", default="", help="with --evaluate: seeds_*.json files (comma-separated) of "
+                    "earlier evaluations; a run already flown there on the same missions by the same "
+                    "driver is not flown again")
     a = ap.parse_args(argv)
     try:
         out, runs = Path(a.out), [Path(r) for r in a.runs]
@@ -216,7 +242,9 @@ def main(argv: list[str] | None = None) -> int:
             if weights not in ("policy", "best"):
                 raise ValueError(f"--weights: {weights!r} is neither policy nor best")
             for shield in (False, True):
-                s = reevaluate(runs, a.evaluate, a.eval_seed, a.scenario, a.planner, weights, shield)
+                done = reused_rows([Path(f) for f in a.reuse.split(",") if f], a.evaluate, a.eval_seed,
+                                   a.scenario, a.planner, weights, shield)
+                s = reevaluate(runs, a.evaluate, a.eval_seed, a.scenario, a.planner, weights, shield, done)
                 write(s, out, f"seeds_{weights}_{'shield' if shield else 'raw'}")
                 print(f"\n{weights} weights{' + shield' if shield else ', raw'} on {a.evaluate} {a.scenario} "
                       f"missions (seed {a.eval_seed}):\n{table(s)}")
