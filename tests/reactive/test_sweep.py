@@ -44,7 +44,7 @@ def test_seeds_aggregate_mean_min_max_and_band(tmp_path, capsys):
     assert "nope" in capsys.readouterr().err
 
 
-def test_seeds_reevaluated_on_the_same_fresh_missions(tmp_path, tiny_overrides):
+def test_seeds_reevaluated_on_the_same_fresh_missions(tmp_path, tiny_overrides, capsys):
     """--evaluate N: every seed's final and best weights, raw and shielded, on one set of N missions."""
     cfg = config_mod.build("study", overrides={**tiny_overrides, "scenario": "study2d", "total_steps": 300,
                                                 "prefill_steps": 100, "n_envs": 4, "eval_episodes": 10})
@@ -61,13 +61,17 @@ def test_seeds_reevaluated_on_the_same_fresh_missions(tmp_path, tiny_overrides):
     shield = json.loads((tmp_path / "ev" / "seeds_policy_shield.json").read_text())
     assert raw["shield"] is False and shield["shield"] is True
     # --reuse: a run found in an earlier file on the same missions is taken from it, the others are
-    # flown; a file of other missions (another episode count) gives nothing
+    # flown; a file of the other driver (shielded) gives nothing; a file of other missions (another
+    # episode count) is refused, naming the field
     part = {**raw, "runs": raw["runs"][:1], "per_seed": [{**raw["per_seed"][0], "marker": 1}]}
     (tmp_path / "part.json").write_text(json.dumps(part))
     (tmp_path / "other.json").write_text(json.dumps({**part, "episodes_per_seed": 13}))
-    assert seeds_main([*runs, "--out", str(tmp_path / "ev2"), "--evaluate", "12", "--scenario", "study2d",
-                       "--planner", "none", "--weights", "policy",
-                       "--reuse", f"{tmp_path / 'other.json'},{tmp_path / 'part.json'}"]) == 0
+    args = [*runs, "--out", str(tmp_path / "ev2"), "--evaluate", "12", "--scenario", "study2d",
+            "--planner", "none", "--weights", "policy", "--reuse"]
+    capsys.readouterr()
+    assert seeds_main([*args, f"{tmp_path / 'part.json'},{tmp_path / 'other.json'}"]) == 2
+    assert "episodes_per_seed 13 (this run: 12)" in capsys.readouterr().err
+    assert seeds_main([*args, f"{tmp_path / 'part.json'}"]) == 0
     again = json.loads((tmp_path / "ev2" / "seeds_policy_raw.json").read_text())
     assert again["per_seed"][0].get("marker") == 1 and "marker" not in again["per_seed"][1]
     assert again["per_seed"][1] == raw["per_seed"][1]               # flown again: the same missions

@@ -117,16 +117,21 @@ def write(summary: dict, out: Path, stem: str) -> None:
 def reused_rows(files: list[Path], episodes: int, seed: int, scenario: str, planner: str, weights: str,
                 shield: bool) -> dict[str, dict]:
     """Rows of earlier ``reevaluate`` JSONs flown on the same missions by the same driver, by run
-    folder (the first file's row wins); files of another driver or other missions give none.
+    folder (the first file's row wins). A file of another driver (weights, shield) gives none: the
+    raw and shielded files are passed together. A file of other missions is refused, naming the
+    field, as ``evaluate --reuse`` refuses one: it is a wrong file, not one to skip unseen.
 
     Why: a seed trained in a later session joins the table without flying the earlier seeds again
     (1000 missions, raw and shielded, are minutes per seed)."""
-    want = {"episodes_per_seed": episodes, "eval_seed": seed, "scenario": scenario, "planner": planner,
-            "weights": weights, "shield": shield}
+    missions = {"episodes_per_seed": episodes, "eval_seed": seed, "scenario": scenario, "planner": planner}
+    driver = {"weights": weights, "shield": shield}
     rows: dict[str, dict] = {}
     for f in files:
         s = json.loads(Path(f).read_text())
-        if all(s.get(k) == v for k, v in want.items()):
+        diffs = [f"{k} {s.get(k)!r} (this run: {v!r})" for k, v in missions.items() if s.get(k) != v]
+        if diffs:
+            raise ValueError(f"--reuse {f}: flown on other missions: " + ", ".join(diffs))
+        if all(s.get(k) == v for k, v in driver.items()):
             for run, row in zip(s["runs"], s["per_seed"]):
                 rows.setdefault(str(Path(run)), row)
     return rows
