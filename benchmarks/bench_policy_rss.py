@@ -22,9 +22,9 @@ pol = load_policy()
 obs = np.ones((1000, pol.layout.size), np.float32); obs[:, -1] = np.linspace(-1, 1, 1000)
 drv = pol
 if SHIELD:
-    from cage_sim.controller import ArcController
+    from cage_sim.driver import fallback_for
     from cage_sim.shield import SafetyShield
-    drv = SafetyShield(pol, ArcController(pol.layout))
+    drv = SafetyShield(pol, fallback_for(pol, pol.layout))
 for o in obs:
     drv.act(o)
 """

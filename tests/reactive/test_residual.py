@@ -81,10 +81,37 @@ def test_residual_policy_file_says_so_and_is_refused_for_another_controller(tmp_
     with pytest.raises(PolicyLoadError, match="min_clearance: file has 0.9, this build uses 1.1"):
         load_policy(tmp_path / "r.safetensors")
     meta["residual_base"]["params"]["min_clearance"] = 1.1
+    meta["residual_base"]["params"]["pursuit"] = "yes"
+    (tmp_path / "r.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match="pursuit is 'yes', expected true or false"):
+        load_policy(tmp_path / "r.safetensors")
+    meta["residual_base"]["params"]["pursuit"] = False
     meta["network"]["residual"] = False
     (tmp_path / "r.json").write_text(json.dumps(meta))
     with pytest.raises(PolicyLoadError, match="obs_dim"):
         load_policy(tmp_path / "r.safetensors")
+
+
+def test_the_base_controller_is_the_one_recorded_and_the_shield_falls_back_to_it(tmp_path):
+    """A policy trained on the pursuit controller records it, loads with it, and its shield's
+    fallback is that controller (one decision shared); a file written before ``pursuit`` existed
+    (no such key) loads with it off, as it was trained."""
+    from cage_reactive_ddpg.evaluate import load_driver
+    from cage_sim.driver import fallback_for, same_decisions
+    a = _actor(ENV.layout.size + 1)
+    cfg = {"config": {"sensor": "study", "observation": "v2", "velocity": True, "memory_bins": 72}}
+    save_policy(tmp_path / "p.safetensors", a, cfg, ENV.layout, base=ArcController(ENV.layout, pursuit=True))
+    meta = json.loads((tmp_path / "p.json").read_text())
+    assert meta["residual_base"]["params"]["pursuit"] is True
+    pol = load_policy(tmp_path / "p.safetensors")
+    assert pol.residual_base.pursuit is True
+    shield, _, _ = load_driver(str(tmp_path / "p.safetensors"), shield=True)
+    assert shield.fallback.pursuit is True and same_decisions(shield.fallback, shield.policy.residual_base)
+    del meta["residual_base"]["params"]["pursuit"]
+    (tmp_path / "p.json").write_text(json.dumps(meta))
+    old = load_policy(tmp_path / "p.safetensors")
+    assert old.residual_base.pursuit is False and fallback_for(old, old.layout).pursuit is False
+    assert fallback_for(ArcController(ENV.layout, pursuit=True), ENV.layout).pursuit is False   # not residual
 
 
 def test_a_zero_residual_flies_the_flown_baseline(tmp_path):
@@ -108,7 +135,7 @@ def test_residual_training_feeds_the_flown_baselines_action(tmp_path, tiny_overr
     over = {**tiny_overrides, "scenario": "cage?current=0.3&schools=2", "motion": "continuous",
             "planner": "rrt", "total_steps": 600, "n_envs": 4, "prefill_steps": 200, "eval_episodes": 4,
             "velocity": True, "observation": "v2", "memory_bins": 72, "expert": "flown", "residual": True,
-            "bc_weight": 1.0}
+            "bc_weight": 1.0, "expert_pursuit": True}
     tr = Trainer(config_mod.build("fast", overrides=over), tmp_path / "r", progress=False)
     tr.run()
     n = tr.buffer.size
@@ -118,8 +145,11 @@ def test_residual_training_feeds_the_flown_baselines_action(tmp_path, tiny_overr
     assert np.isfinite(tr.buffer.next_obs[:n, -1]).all()
     pol = load_policy(tmp_path / "r" / "policy.safetensors")
     assert pol.residual_base is not None and pol.metadata["config"]["expert"] == "flown"
+    assert tr.expert.pursuit and pol.residual_base.pursuit       # the base it was trained on
 
 
 def test_a_residual_needs_the_flown_expert():
     with pytest.raises(ValueError, match="residual: needs expert: flown"):
         config_mod.build(overrides={"residual": True, "expert": "baseline"})
+    with pytest.raises(ValueError, match="expert_pursuit: needs an expert"):
+        config_mod.build(overrides={"expert_pursuit": True})

@@ -6,6 +6,7 @@ import pytest
 
 from cage_sim.controller import ArcController, nearest_distance
 from cage_sim.env import CageNavEnv
+from cage_sim.perception import Perception
 from cage_sim.rollout import run_episode
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
@@ -175,7 +176,6 @@ def test_empty_scan_and_waypoint_dead_ahead_goes_straight():
     assert SafetyShield(ArcController()).act(obs)[0] == 0.0
     hard_left = SafetyShield(Constant(1.0))                 # what the first shipped policy did here
     assert hard_left.act(obs)[0] == 0.0 and hard_left.interventions == 1
-    from cage_sim.perception import Perception
     # With a 0.3 m/s drift to the left the baseline crabs to the right so its track over ground stays on the line.
     a = ctrl.decide(10.0, 0.0, Perception(np.zeros((0, 2)), drift=np.array([0.0, 0.3])))
     assert np.isclose(a * ctrl.vehicle.max_turn, -np.arcsin(0.3))
@@ -186,6 +186,25 @@ def test_goal_abeam_inside_the_turning_circle_is_passed_through_not_orbited():
     sc = Scenario("abeam", World(30.0), (0.0, 0.0, 0.0), (0.0, 2.0))
     ep = run_one(ArcController(), sc, perception=True)
     assert ep.outcome == "goal" and ep.steps <= 22     # circling it at 2 m would time out
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_pursuit_turns_to_a_goal_behind_that_the_drift_made_it_put_off(side):
+    """Goal 6 m behind and to one side, a 0.5 m/s drift backwards to the other: every held turn
+    is blown off the goal, so the plain controller flies straight on (and decides the same next
+    time: the turn put off a decision at a time, as in the 0.5 m/s near-net cells). The pursuit
+    candidate re-aims while it turns and crabs: it turns towards the goal now and its rollout
+    comes within a metre of it."""
+    err, d = side * math.radians(150), side * math.radians(225)
+    drift = 0.5 * np.array([math.cos(d), math.sin(d)])
+    p = Perception(np.zeros((0, 2)), drift=drift, final=True)
+    plain, pursuit = ArcController(), ArcController(pursuit=True)
+    assert abs(plain.decide(6.0, err, p)) < 0.5
+    assert pursuit.decide(6.0, err, p) * side > 0.9
+    goal = 6.0 * np.array([math.cos(err), math.sin(err)])
+    flown = pursuit._pursuit(goal, drift) + drift * pursuit._times[:, None]
+    assert np.linalg.norm(flown - goal, axis=1).min() < 1.0
+    assert pursuit.tunables()["pursuit"] is True and plain.tunables()["pursuit"] is False
 
 
 class Pursuit:
@@ -318,7 +337,6 @@ def test_an_unsafe_action_is_replaced_on_the_side_of_the_manoeuvre_in_hand():
     """A wall 4 m ahead: straight on is unsafe, turns either way are safe. Which side the shield turns
     to is the side of the manoeuvre that made the last action safe (``Commitment``), not a fresh pick
     each decision; without one (or with ``keep_manoeuvre`` off) the pick does not depend on it."""
-    from cage_sim.perception import Perception
     from cage_sim.shield import Commitment, Manoeuvre
     wall = np.array([(4.0, y) for y in np.linspace(-1, 1, 9)])
     p = Perception(wall)
@@ -384,7 +402,6 @@ def test_shield_given_the_controllers_action_decides_as_computing_it():
     # A residual policy's base is the fallback's own action on this perception; handing it to the
     # shield (stalled: the controller flies; open water: likewise) must change nothing.
     from cage_sim.driver import same_decisions
-    from cage_sim.perception import Perception
     shield = SafetyShield(Constant(0.6))
     p = Perception(np.array([(4.0, 1.0), (5.0, -2.0), (3.0, 3.0)]), drift=np.array([-0.2, 0.3]))
     for percept in (p, Perception(np.zeros((0, 2)), drift=np.array([0.1, 0.0]))):

@@ -75,6 +75,7 @@ class TrainConfig:
     bc_weight_final: float = -1.0        # < 0: constant; else linear decay to this weight
     q_filter: bool = True                # clone only where Q(s, expert) >= Q(s, actor) (Nair et al. 2018)
     residual: bool = False               # the actor moves the expert's action (networks.residual_action); needs expert: flown
+    expert_pursuit: bool = False         # the expert (a residual policy's base) re-aims in one candidate (controller.py)
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
     replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
     replay_max_tries: int = 3            # times one mission may be flown in all
@@ -107,6 +108,8 @@ class TrainConfig:
             raise ValueError(f"expert: must be one of {EXPERTS}, got {self.expert!r}")
         if (self.expert_fraction > 0 or self.bc_weight > 0) and not self.expert:
             raise ValueError("expert_fraction / bc_weight need an expert (expert: baseline)")
+        if self.expert_pursuit and not self.expert:
+            raise ValueError("expert_pursuit: needs an expert (the controller it changes)")
         if self.residual and self.expert != "flown":
             raise ValueError(f"residual: needs expert: flown (the base action is the flown baseline's), "
                              f"got expert: {self.expert!r}")

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
-from cage_sim.driver import Driver, decide_batch, mission_moment
+from cage_sim.driver import Driver, decide_batch, fallback_for, mission_moment
 from cage_sim.route import ReplanWatch
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
@@ -180,7 +180,7 @@ def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None
     from .policy import load_policy
     pol = load_policy(spec, profile=sensor)
     if shield:
-        return SafetyShield(pol, ArcController(pol.layout)), f"policy {pol.path} + shield", pol.metadata
+        return SafetyShield(pol, fallback_for(pol, pol.layout)), f"policy {pol.path} + shield", pol.metadata
     return pol, f"policy {pol.path}", pol.metadata
 
 

@@ -61,10 +61,11 @@ def paths(path: str | Path) -> tuple[Path, Path]:
 
 
 def save_policy(path: str | Path, actor: "Actor", metadata: dict[str, Any],
-                layout: ObservationLayout | None = None) -> tuple[Path, Path]:
+                layout: ObservationLayout | None = None, base: ArcController | None = None) -> tuple[Path, Path]:
     """Write the actor's weights and ``metadata`` (plus layout/action/network facts) next to each other.
 
-    ``layout``: the observation layout the actor was trained on (default: this build's default)."""
+    ``layout``: the observation layout the actor was trained on (default: this build's default).
+    ``base``: a residual actor's base controller (default: the default ``ArcController``)."""
     from safetensors.torch import save_file
     layout = layout or ObservationLayout()
     wpath, mpath = paths(path)
@@ -80,7 +81,7 @@ def save_policy(path: str | Path, actor: "Actor", metadata: dict[str, Any],
             "obs_norm": bool(actor.norm.enabled), "code_version": code_version(), **metadata}
     if meta["network"]["residual"]:
         meta["residual_base"] = {"controller": "cage_sim.controller.ArcController",
-                                 "params": ArcController(layout).tunables(),
+                                 "params": (base or ArcController(layout)).tunables(),
                                  "input": "the observation, then the controller's action on it (last input)",
                                  "perception": "as the baseline is flown (cage_sim.driver.decide_batch)",
                                  "action": "residual_action(base, tanh(MLP)) (inference.py)"}
@@ -236,11 +237,16 @@ def _ensemble_actor(state: dict, expected: dict, members, residual: bool, wpath:
 
 def _residual_base(meta: dict, layout, vehicle: VehicleParams, mpath: Path) -> ArcController:
     """The controller a residual policy moves; refused when its parameters differ from this build's
-    (the policy learnt to correct that controller, not another), naming each."""
-    base = ArcController(layout, vehicle)
+    (the policy learnt to correct that controller, not another), naming each. ``pursuit`` is a
+    choice, taken from the file (absent in files written before it existed: off)."""
     rec = (meta.get("residual_base") or {}).get("params")
     if not isinstance(rec, dict):
         raise PolicyLoadError(f"policy metadata {mpath}: a residual policy without residual_base.params")
+    rec = {"pursuit": False, **rec}
+    if not isinstance(rec["pursuit"], bool):
+        raise PolicyLoadError(f"policy metadata {mpath}: residual_base.params.pursuit is {rec['pursuit']!r}, "
+                              "expected true or false")
+    base = ArcController(layout, vehicle, pursuit=rec["pursuit"])
     mine = base.tunables()
     diffs = [f"{k}: file has {rec.get(k)!r}, this build uses {v!r}" for k, v in mine.items()
              if not (isinstance(rec.get(k), (int, float)) and math.isclose(rec[k], v, rel_tol=1e-9))]

@@ -132,7 +132,8 @@ class Trainer:
         # Expert guidance: the classical baseline labels every transition (on the observation alone,
         # or as it is flown: FlownLabeller); a share of the episodes is flown by it (demonstrations).
         # A residual actor reads that label as its base action.
-        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle) if cfg.expert else None
+        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle, pursuit=cfg.expert_pursuit) \
+            if cfg.expert else None
         self.labeller = None if self.expert is None else \
             (FlownLabeller if cfg.expert == "flown" else ObservationLabeller)(self.expert)
         if cfg.scenario == STUDY1D:
@@ -408,7 +409,7 @@ class Trainer:
         if c.scenario == STUDY1D:
             meta["observation_layout"] = {"name": STUDY1D, "size": 1}
         save_policy(self.out / f"{name}.safetensors", self.agent.actor, meta,
-                    None if c.scenario == STUDY1D else self.env_cfg.layout)
+                    None if c.scenario == STUDY1D else self.env_cfg.layout, base=self.expert)
 
     def save_checkpoint(self) -> None:
         state = {"agent": self.agent.state_dict(), "config": self.cfg.to_dict(),

@@ -14,6 +14,13 @@ rollouts carry the drift (velocity over ground minus through-water velocity, fro
 each return moves with its estimated velocity, so what is checked is what will be flown. The
 candidate that keeps clear and comes nearest the waypoint wins; when the waypoint is the goal,
 nothing after passing through it is checked (the mission ends there).
+
+``pursuit`` adds one candidate that re-aims at the waypoint at every decision of its rollout. Why:
+with the waypoint behind and walls near (a goal by the net, downstream in a strong current), every
+turn held for the whole horizon ends near a wall, and "aim once, then hold" turns only one step,
+so the controller put off the turn a decision at a time and flew away from the goal. Off by default:
+the classical baseline, and residual policies trained on it, stay as they were; a residual policy's
+file records it (``tunables``) and its shield's fallback is built alike (``driver.fallback_for``).
 """
 from __future__ import annotations
 
@@ -43,6 +50,7 @@ class ArcController:
     comfort: float = 2.5            # m: clearance below this is penalised
     comfort_weight: float = 2.0
     goal_pass: float = 0.8          # m: a rollout point this near the goal counts as reaching it
+    pursuit: bool = False           # one more candidate: re-aim at the waypoint at every decision
 
     def __post_init__(self) -> None:
         self._beams = self.layout.angles if hasattr(self.layout, "angles") else \
@@ -111,10 +119,13 @@ class ArcController:
         """The action for a waypoint at (dist, err) (body frame) given what is perceived."""
         goal = np.array([dist * math.cos(err), dist * math.sin(err)])
         drift = np.asarray(p.drift, dtype=np.float64)
-        # One more candidate: turn onto the waypoint (crabbing against the drift), then hold that heading.
+        # Aimed candidates, each starting by turning onto the waypoint (crabbing against the drift):
+        # then hold that heading; with ``pursuit`` also: keep re-aiming at every decision.
         a_aim = float(np.clip(self._aim(err, drift) / self.vehicle.max_turn, -1.0, 1.0)) if dist > 0 else 0.0
-        traj = np.concatenate([self._traj, self._rollout(lambda h: a_aim if h == 0 else 0.0)[None]])
-        firsts = np.append(self._first, a_aim)
+        aims = [self._rollout(lambda h: a_aim if h == 0 else 0.0)] + ([self._pursuit(goal, drift)] if self.pursuit else [])
+        n_aims = len(aims)
+        traj = np.concatenate([self._traj, np.stack(aims)])
+        firsts = np.append(self._first, [a_aim] * n_aims)
         flown = traj + drift * self._times[None, :, None]                # [cand, point, 2] over ground
         to_goal = np.linalg.norm(flown - goal, axis=-1)                  # [cand, point]
         near = np.linalg.norm(p.returns, axis=1) < self._reach + np.hypot(*drift) * self._times[-1] \
@@ -122,7 +133,7 @@ class ArcController:
         if near.any():   # each return as seen from the vehicle drifting past it: q - (drift - u) t
             pts, rel = p.returns[near], p.relative()[near]
             fixed = self._clearance_below(max(self.comfort, self.min_clearance), rel, pts)[self._inverse.reshape(-1)]
-            aimed = nearest_distance(traj[-1:], self._times[None, :], rel, pts)
+            aimed = nearest_distance(traj[-n_aims:], self._times[None, :], rel, pts)
             clear_along = np.concatenate([fixed.reshape(self._traj.shape[:2]), aimed])  # [cand, point]
         else:
             clear_along = np.full(traj.shape[:2], np.inf)
@@ -143,7 +154,7 @@ class ArcController:
         if not ok.any():
             return float(firsts[int(np.argmax(clearance))])   # boxed in: the manoeuvre that keeps farthest away
         best = int(np.argmin(np.where(ok, score, np.inf)))
-        if ok[-1] and score[-1] <= score[best] + 0.05:
+        if (ok[-n_aims:] & (score[-n_aims:] <= score[best] + 0.05)).any():
             return a_aim          # flying at the waypoint is as good: do exactly that (no dithering)
         return float(firsts[best])
 
@@ -176,6 +187,23 @@ class ArcController:
                         + np.where(inside, 2 * r, 0.0), np.inf)
         return np.where(first >= 0, cost, flown.shape[1] * step + rest)
 
+    def _pursuit(self, goal: np.ndarray, drift: np.ndarray) -> np.ndarray:
+        """Through-water body-frame rollout that re-aims at ``goal`` (over ground) at every decision,
+        crabbing against ``drift``: what the controller flies when it keeps choosing to aim."""
+        x = y = yaw = 0.0
+        period, pts = self.vehicle.decision_period, []
+        for h in range(self.horizon):
+            gx, gy = x + drift[0] * h * period, y + drift[1] * h * period      # over ground now
+            err = math.atan2(goal[1] - gy, goal[0] - gx) - yaw
+            err = math.atan2(math.sin(err), math.cos(err))
+            c, s = math.cos(yaw), math.sin(yaw)
+            d_body = np.array([c * drift[0] + s * drift[1], -s * drift[0] + c * drift[1]])
+            a = float(np.clip(self._aim(err, d_body) / self.vehicle.max_turn, -1.0, 1.0))
+            x0, y0 = x, y
+            x, y, yaw = decision_step(x, y, yaw, a, self.vehicle)
+            pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
+        return np.array(pts)
+
     def _aim(self, err: float, drift: np.ndarray) -> float:
         """Heading change that makes the velocity over ground point at the waypoint (err without drift)."""
         cross = drift[0] * math.sin(err) - drift[1] * math.cos(err)       # drift x unit(goal direction)
@@ -187,7 +215,8 @@ class ArcController:
     def tunables(self) -> dict[str, float]:
         """The controller's own parameters (not the layout or the vehicle): what a residual
         policy's file records, since its actions are moves of this controller's."""
-        return {k: getattr(self, k) for k in ("horizon", "min_clearance", "comfort", "comfort_weight", "goal_pass")}
+        return {k: getattr(self, k) for k in ("horizon", "min_clearance", "comfort", "comfort_weight", "goal_pass",
+                                              "pursuit")}
 
 
 def act_rows(act_one, obs: np.ndarray) -> np.ndarray:

@@ -103,6 +103,14 @@ def residual_base(policy) -> ArcController | None:
     return getattr(policy, "residual_base", None)
 
 
+def fallback_for(policy, layout, vehicle: VehicleParams | None = None) -> ArcController:
+    """The shield's fallback controller for ``policy``: a residual policy's base's parameters (the
+    controller it learnt to correct; ``decide_batch`` then decides once for both), else the default."""
+    base = residual_base(policy)
+    tun = base.tunables() if base is not None else {}
+    return ArcController(layout, vehicle, **tun) if vehicle is not None else ArcController(layout, **tun)
+
+
 def same_decisions(a: ArcController, b: ArcController) -> bool:
     """Whether two controllers decide alike from the same (dist, err, perception): the same
     parameters and vehicle (``decide`` reads nothing else), so one's action stands for the other's."""

@@ -31,7 +31,7 @@ from collections import OrderedDict
 import numpy as np
 from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
-from cage_sim.driver import Driver
+from cage_sim.driver import Driver, fallback_for
 from cage_sim.mission import EnvConfig
 from cage_sim.nodes.node_common import (VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle,
                                         start_only_reason)
@@ -131,7 +131,7 @@ class PolicyNode(Node):
                     self.get_logger().info(f"shield {prm.value}: no effect on the classical baseline")
                     continue
                 raw = self.policy.policy if isinstance(self.policy, SafetyShield) else self.policy
-                self.driver.policy = SafetyShield(raw, ArcController(self.layout, self.vehicle),
+                self.driver.policy = SafetyShield(raw, fallback_for(raw, self.layout, self.vehicle),
                                                   recover=self.p["stall_recovery"]) if prm.value else raw
                 self.get_logger().info(f"safety shield {'on' if prm.value else 'off'} from the next decision")
         return SetParametersResult(successful=True)
@@ -183,7 +183,7 @@ class PolicyNode(Node):
                                f"{pol.layout.to_dict().get('name')}; training evaluation: {rates}); "
                                f"safety shield {'on' if self.p['shield'] else 'off'}")
         if self.p["shield"]:
-            return SafetyShield(pol, ArcController(pol.layout, self.vehicle), recover=self.p["stall_recovery"]), \
+            return SafetyShield(pol, fallback_for(pol, pol.layout, self.vehicle), recover=self.p["stall_recovery"]), \
                 HeadingSetpoint.SOURCE_POLICY, env
         return pol, HeadingSetpoint.SOURCE_POLICY, env
 
