@@ -192,19 +192,19 @@ class ArcController:
         crabbing against ``drift``: what the controller flies when it keeps choosing to aim."""
         x = y = yaw = 0.0
         period, pts = self.vehicle.decision_period, []
+        (dx, dy), (gx0, gy0) = (float(v) for v in drift), (float(v) for v in goal)   # plain floats: 10 steps
         for h in range(self.horizon):
-            gx, gy = x + drift[0] * h * period, y + drift[1] * h * period      # over ground now
-            err = math.atan2(goal[1] - gy, goal[0] - gx) - yaw
+            gx, gy = x + dx * h * period, y + dy * h * period                  # over ground now
+            err = math.atan2(gy0 - gy, gx0 - gx) - yaw
             err = math.atan2(math.sin(err), math.cos(err))
             c, s = math.cos(yaw), math.sin(yaw)
-            d_body = np.array([c * drift[0] + s * drift[1], -s * drift[0] + c * drift[1]])
-            a = float(np.clip(self._aim(err, d_body) / self.vehicle.max_turn, -1.0, 1.0))
+            a = max(-1.0, min(1.0, self._aim(err, (c * dx + s * dy, -s * dx + c * dy)) / self.vehicle.max_turn))
             x0, y0 = x, y
             x, y, yaw = decision_step(x, y, yaw, a, self.vehicle)
             pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
         return np.array(pts)
 
-    def _aim(self, err: float, drift: np.ndarray) -> float:
+    def _aim(self, err: float, drift) -> float:
         """Heading change that makes the velocity over ground point at the waypoint (err without drift)."""
         cross = drift[0] * math.sin(err) - drift[1] * math.cos(err)       # drift x unit(goal direction)
         return err + math.asin(max(-1.0, min(1.0, cross / self.vehicle.speed)))
