@@ -76,12 +76,14 @@ def main() -> None:
     vec_rate = rate(lambda: venv.step(acts), args.seconds, 32)
     ctrl, obs = ArcController(), env.reset(seed=1)[0]
     ctrl_rate = rate(lambda: ctrl.act(obs), args.seconds)
+    pursuit = ArcController(pursuit=True)      # one more candidate, rolled out afresh at each decision
+    pursuit_rate = rate(lambda: pursuit.act(obs), args.seconds)
 
     figures = {
         "scan_single_us": 1e6 / single, "scans_per_s_single": single,
         "scans_per_s_batched_one_world": batched, "scans_per_s_batched_64_worlds": multi,
         "env_steps_per_s": env_rate, "vec_env_steps_per_s_32": vec_rate,
-        "arc_controller_decisions_per_s": ctrl_rate,
+        "arc_controller_decisions_per_s": ctrl_rate, "arc_controller_pursuit_decisions_per_s": pursuit_rate,
     }
     print(f"{'figure':34s} {'value':>12s}  target")
     targets = {"scan_single_us": "<= 30", "scans_per_s_batched_one_world": ">= 50000"}
