@@ -16,11 +16,13 @@ candidate that keeps clear and comes nearest the waypoint wins; when the waypoin
 nothing after passing through it is checked (the mission ends there).
 
 ``pursuit`` adds one candidate that re-aims at the waypoint at every decision of its rollout. Why:
-with the waypoint behind and walls near (a goal by the net, downstream in a strong current), every
-turn held for the whole horizon ends near a wall, and "aim once, then hold" turns only one step,
-so the controller put off the turn a decision at a time and flew away from the goal. Off by default:
-the classical baseline, and residual policies trained on it, stay as they were; a residual policy's
-file records it (``tunables``) and its shield's fallback is built alike (``driver.fallback_for``).
+with the waypoint behind in a strong drift (a goal by the net, downstream in a 0.5 m/s current),
+every turn held for the whole horizon is blown off it or into the net beside it, and "aim once,
+then hold" turns only one step, so the controller put off the turn a decision at a time and flew
+away from the goal. Off by default: the classical baseline, and residual policies trained on it,
+stay as they were; a residual policy's file records it (``tunables``) and its shield's fallback is
+built alike (``driver.fallback_for``). A residual policy retrained on it did no better in the cells
+it was made for (README, session 35).
 """
 from __future__ import annotations
 
@@ -122,7 +124,9 @@ class ArcController:
         # Aimed candidates, each starting by turning onto the waypoint (crabbing against the drift):
         # then hold that heading; with ``pursuit`` also: keep re-aiming at every decision.
         a_aim = float(np.clip(self._aim(err, drift) / self.vehicle.max_turn, -1.0, 1.0)) if dist > 0 else 0.0
-        aims = [self._rollout(lambda h: a_aim if h == 0 else 0.0)] + ([self._pursuit(goal, drift)] if self.pursuit else [])
+        aims = [self._rollout(lambda h: a_aim if h == 0 else 0.0)]
+        if self.pursuit:
+            aims.append(self._pursuit(goal, drift))
         n_aims = len(aims)
         traj = np.concatenate([self._traj, np.stack(aims)])
         firsts = np.append(self._first, [a_aim] * n_aims)
