@@ -2,6 +2,8 @@
 import json
 
 import numpy as np
+import pytest
+from cage_sim.sonar import make_sonar
 
 from cage_reactive_ddpg.evaluate import evaluate, main, wilson
 from cage_reactive_ddpg.missions import episode_scenarios, parse_mix
@@ -32,6 +34,29 @@ def test_same_seed_same_episodes_whatever_the_batching():
     r2 = run_missions(Straight(), episode_scenarios("study2d", 12, 5), EnvConfig(), batch=5)
     assert [(r.outcome, r.steps) for r in r1] == [(r.outcome, r.steps) for r in r2]
     assert parse_mix("a:0.7,b:0.3") == [("a", 0.7), ("b", 0.3)] and parse_mix("study2d") == [("study2d", 1.0)]
+
+
+class ScanFollower:
+    """Steers by a smooth function of the whole observation, so any change of noise moves its track."""
+
+    def act(self, obs):
+        obs = np.nan_to_num(np.asarray(obs, dtype=np.float64), posinf=2.0)
+        return np.clip(np.sin(obs.sum(axis=-1, keepdims=True)), -1, 1)
+
+
+@pytest.mark.parametrize("sensor", ["fls", "scanning"])
+def test_a_noisy_mission_flies_the_same_alone_as_in_its_batch(sensor):
+    """Each mission draws its sonar noise from its own stream (``noise_stream``): a failed mission
+    of a noisy profile can be flown again alone, and gives the same track as in the matrix's batch."""
+    from cage_reactive_ddpg.evaluate import run_missions
+    from cage_sim.mission import EnvConfig
+    config = EnvConfig(sonar=sensor)
+    scs = episode_scenarios("cage", 5, seed=11)
+    batch = run_missions(ScanFollower(), scs, config, keep_tracks=5)
+    alone = [run_missions(ScanFollower(), [sc], config, keep_tracks=1)[0] for sc in scs]
+    assert [r.track for r in batch] == [r.track for r in alone]
+    clean = EnvConfig(sonar=make_sonar(sensor, noise_std=0.0, dropout=0.0))
+    assert run_missions(ScanFollower(), scs[:1], clean, keep_tracks=1)[0].track != batch[0].track
 
 
 def test_wilson_interval():

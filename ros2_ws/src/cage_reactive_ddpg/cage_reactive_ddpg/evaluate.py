@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 from cage_sim.controller import ArcController, Policy
-from cage_sim.mission import OUTCOMES, EnvConfig, Mission, observe_batch
+from cage_sim.mission import OUTCOMES, EnvConfig, Mission, noise_stream, observe_batch
 from cage_sim.driver import Driver, decide_batch, fallback_for, mission_moment
 from cage_sim.route import ReplanWatch
 from cage_sim.scenarios import Scenario
@@ -69,14 +69,14 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     arrives); None = one plan per mission (the study's protocol)."""
     results: list[EpisodeResult] = []
     bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
-    rng = np.random.default_rng(0)   # sonar noise only (off by default)
     for lo in range(0, len(scenarios), batch):
         ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
+        noise = [noise_stream(sc) for sc in scenarios[lo:lo + batch]]   # per mission: batch-proof
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
         while live:
-            obs = observe_batch(config, [ms[i] for i in live], rng)
+            obs = observe_batch(config, [ms[i] for i in live], [noise[i] for i in live])
             acts, _ = decide_batch([drivers[i] for i in live], obs, [mission_moment(ms[i]) for i in live])
             still = []
             for i, a in zip(live, acts):

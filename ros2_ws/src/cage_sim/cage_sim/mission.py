@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 
@@ -239,16 +240,37 @@ class Mission:
         return self.sense(rng).ranges
 
 
-def observe_batch(config: EnvConfig, missions: list[Mission], rng: np.random.Generator | None = None) -> np.ndarray:
+def noise_stream(scenario: Scenario) -> np.random.Generator:
+    """A mission's own sonar-noise generator, seeded by its start pose and goal (the bits of the
+    floats). Why: with one generator shared by a batch, a mission's noise (and so its flight) hung on
+    which missions flew beside it, so a failed mission could not be flown again alone."""
+    key = np.array([*scenario.start, *scenario.goal], dtype=np.float64).view(np.uint64)
+    return np.random.default_rng([int(k) for k in key])
+
+
+Noise = np.random.Generator | Sequence[np.random.Generator] | None
+
+
+def observe_batch(config: EnvConfig, missions: list[Mission], rng: Noise = None) -> np.ndarray:
     """Observations of many missions at once: one batched sonar call (each in its own world) for an
     electronic sonar with the v1 layout; otherwise each mission's own head and builder (same code as
-    ``CageNavEnv``)."""
+    ``CageNavEnv``). ``rng``: one generator for the whole batch, one per mission (``noise_stream``:
+    each mission's noise then does not depend on the batch), or None (no noise)."""
     layout = config.layout
-    if config.sonar.mechanical or not isinstance(layout, ObservationLayout):
-        if config.sonar.mechanical:
-            return np.stack([m.observe(m.sense(rng)) for m in missions])
-        poses = np.array([m.pose for m in missions])
-        ranges = config.sonar.scan_batch([m.scene for m in missions], poses, np.array([m.t for m in missions]), rng)
+    if not config.sonar.noisy:
+        rng = None
+    own = rng is not None and not isinstance(rng, np.random.Generator)
+    rngs = list(rng) if own else [rng] * len(missions)
+    if config.sonar.mechanical:
+        return np.stack([m.observe(m.sense(g)) for m, g in zip(missions, rngs)])
+    poses = np.array([m.pose for m in missions])
+    t = np.array([m.t for m in missions])
+    if own:
+        ranges = config.sonar.scan_batch([m.scene for m in missions], poses, t)
+        ranges = np.stack([config.sonar.corrupt(r, g) for r, g in zip(ranges, rngs)])
+    else:
+        ranges = config.sonar.scan_batch([m.scene for m in missions], poses, t, rng)
+    if not isinstance(layout, ObservationLayout):
         out = []
         for m, r in zip(missions, ranges):
             n = len(r)
@@ -256,7 +278,5 @@ def observe_batch(config: EnvConfig, missions: list[Mission], rng: np.random.Gen
                                              np.ones(n, dtype=bool))
             out.append(m.observe(m.last_scan))
         return np.stack(out)
-    poses = np.array([m.pose for m in missions])
-    ranges = config.sonar.scan_batch([m.scene for m in missions], poses, np.array([m.t for m in missions]), rng)
     wp = np.array([m.waypoint() for m in missions])
     return layout.build(ranges, wp[:, 0], wp[:, 1])

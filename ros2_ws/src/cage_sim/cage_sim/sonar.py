@@ -214,8 +214,13 @@ class SonarModel:
         """Noise, clutter and dropout (a copy; untouched when ``rng`` is None or all are off)."""
         return self._corrupt(np.array(ranges, dtype=np.float64), rng)
 
+    @property
+    def noisy(self) -> bool:
+        """Whether ``corrupt`` changes anything (noise, clutter or dropout is on)."""
+        return self.noise_std > 0.0 or self.dropout > 0.0 or self.clutter > 0.0
+
     def _corrupt(self, ranges: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-        if rng is None or (self.noise_std == 0.0 and self.dropout == 0.0 and self.clutter == 0.0):
+        if rng is None or not self.noisy:
             return ranges
         finite = np.isfinite(ranges)
         if self.noise_std > 0:
