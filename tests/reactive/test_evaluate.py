@@ -59,6 +59,41 @@ def test_a_noisy_mission_flies_the_same_alone_as_in_its_batch(sensor):
     assert run_missions(ScanFollower(), scs[:1], clean, keep_tracks=1)[0].track != batch[0].track
 
 
+def test_a_grace_flies_timeouts_on_and_still_judges_at_the_budget():
+    """``grace``: missions that time out fly on to (1 + grace) x their budget and say how they ended
+    (``late``); every outcome, step count and distance is still the one judged at the budget."""
+    from cage_reactive_ddpg.evaluate import run_missions, summarize
+    from cage_sim.mission import EnvConfig
+    config = EnvConfig(max_steps_factor=0.9, max_steps_extra=0)     # too short for most routes
+    scs = episode_scenarios("study2d", 16, seed=4)
+    plain = run_missions(Straight(), scs, config)
+    graced = run_missions(Straight(), scs, config, grace=1.0)
+    assert [(r.outcome, r.steps) for r in plain] == [(r.outcome, r.steps) for r in graced]
+    assert [r.travelled for r in graced] == pytest.approx([r.travelled for r in plain])
+    timeouts = [r for r in graced if r.outcome == "timeout"]
+    assert timeouts and all(r.late in ("goal", "collision", "wander", "timeout") for r in timeouts)
+    assert all(r.late is None for r in graced if r.outcome != "timeout")
+    assert all(r.late is None for r in plain)
+    s = summarize(graced, 1.0)
+    assert s["late"]["goal"] > 0 and sum(s["late"].values()) == s["counts"]["timeout"]
+    assert "late" not in summarize(plain)
+    with pytest.raises(ValueError, match="grace: must be a finite number >= 0"):
+        run_missions(Straight(), scs, config, grace=-1.0)
+
+
+def test_cli_grace_counts_late_goals_in_the_matrix(tmp_path):
+    prefix = tmp_path / "m"
+    args = ["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--policy", "baseline", "--drivers", "baseline",
+            "--quiet"]
+    assert main(args + ["--out", str(tmp_path / "plain")]) == 0
+    assert main(args + ["--grace", "1", "--out", str(prefix)]) == 0
+    rows = json.loads(prefix.with_suffix(".json").read_text())["rows"]
+    plain = json.loads((tmp_path / "plain.json").read_text())["rows"]
+    assert all(0 <= r["late_goal"] <= r["timeout"] for r in rows)
+    assert [{k: v for k, v in r.items() if k != "late_goal"} for r in rows] == plain
+    assert "baseline: late goals" in prefix.with_suffix(".md").read_text()
+
+
 def test_wilson_interval():
     lo, hi = wilson(0, 100)
     assert lo == 0.0 and 0.03 < hi < 0.04

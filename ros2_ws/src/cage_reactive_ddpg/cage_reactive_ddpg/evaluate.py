@@ -41,6 +41,7 @@ class EpisodeResult:
     route_length: float
     track: list = field(default_factory=list, repr=False)
     replans: int = 0
+    late: str | None = None      # with a grace: how a timed-out mission ended, flown on past its budget
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -58,7 +59,7 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
                  keep_tracks: int = 0, progress: bool = False, perception: bool = True,
-                 replan: WaypointFn | None = None) -> list[EpisodeResult]:
+                 replan: WaypointFn | None = None, grace: float = 0.0) -> list[EpisodeResult]:
     """Run every scenario to its end; keep the tracks of the first ``keep_tracks`` episodes.
 
     ``perception``: the baseline and the shield see drift and moving returns (as in the graph);
@@ -66,12 +67,20 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     ``replan``: plan a new route from the vehicle's pose when policy_node would ask for one
     (``ReplanWatch`` with its default parameters: no progress for 40 decisions, or 8 m off the
     route), flown from the decision that asked (policy_node holds that decision until the plan
-    arrives); None = one plan per mission (the study's protocol)."""
+    arrives); None = one plan per mission (the study's protocol).
+    ``grace``: fly a mission that times out on, up to (1 + grace) x its budget, and record how it
+    ended (``late``). Outcomes, steps and distances are still judged at the budget: each mission
+    draws its own noise, so its flight up to the budget is the same with or without a grace."""
+    if grace < 0 or not math.isfinite(grace):
+        raise ValueError(f"grace: must be a finite number >= 0, got {grace}")
     results: list[EpisodeResult] = []
     bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
     for lo in range(0, len(scenarios), batch):
         ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
         noise = [noise_stream(sc) for sc in scenarios[lo:lo + batch]]   # per mission: batch-proof
+        budgets = [m.max_steps for m in ms]
+        for m in ms:
+            m.max_steps = math.ceil((1.0 + grace) * m.max_steps)
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
@@ -86,14 +95,23 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
                     if watches is not None:
                         replan_if_asked(ms[i], watches[i], replan)
                 else:
-                    m, k = ms[i], lo + i
-                    results.append(EpisodeResult(k, outcome, m.steps, m.travelled, m.route_length,
-                                                 list(m.track) if k < keep_tracks else [],
-                                                 m.replans))
+                    results.append(_judged(ms[i], outcome, budgets[i], lo + i, lo + i < keep_tracks))
                     bar.update(1)
             live = still
     bar.close()
     return sorted(results, key=lambda r: r.index)
+
+
+def _judged(m: Mission, outcome: str, budget: int, index: int, keep_track: bool) -> EpisodeResult:
+    """A finished mission's result judged at its ``budget``; one that ended past it is a timeout
+    there, and how it ended is kept as ``late``."""
+    if m.steps <= budget:
+        return EpisodeResult(index, outcome, m.steps, m.travelled, m.route_length,
+                             list(m.track) if keep_track else [], m.replans)
+    track = np.asarray(m.track[:budget + 1])
+    travelled = float(np.hypot(*np.diff(track[:, :2], axis=0).T).sum())
+    return EpisodeResult(index, "timeout", budget, travelled, m.route_length,
+                         [tuple(p) for p in track] if keep_track else [], m.replans, late=outcome)
 
 
 def replan_if_asked(m: Mission, watch: ReplanWatch, planner: WaypointFn) -> None:
@@ -108,7 +126,9 @@ def replan_if_asked(m: Mission, watch: ReplanWatch, planner: WaypointFn) -> None
         watch.reset()
 
 
-def summarize(results: list[EpisodeResult]) -> dict:
+def summarize(results: list[EpisodeResult], grace: float = 0.0) -> dict:
+    """Counts, rates, 95 % intervals and means; with a ``grace``, how the timeouts ended past the
+    budget (``late``: goal, collision, wander, or still a timeout)."""
     n = len(results)
     counts = {o: sum(r.outcome == o for r in results) for o in OUTCOMES}
     goals = [r for r in results if r.outcome == "goal"]
@@ -121,6 +141,7 @@ def summarize(results: list[EpisodeResult]) -> dict:
         "mean_steps_goal": float(np.mean([r.steps for r in goals])) if goals else None,
         "path_ratio_goal": float(np.mean([r.travelled / r.route_length for r in goals])) if goals else None,
         "replans": int(sum(r.replans for r in results)),
+        **({"grace": grace, "late": {o: sum(r.late == o for r in results) for o in OUTCOMES}} if grace else {}),
     }
 
 
@@ -132,6 +153,11 @@ def table(name: str, s: dict) -> str:
         lines.append(f"  {o:<10}{s['counts'][o]:>7}{100 * s['rates'][o]:>8.1f}%   [{100 * lo:.1f}, {100 * hi:.1f}]")
     lines.append(f"  mean steps {s['mean_steps']:.1f}; goal episodes: mean steps "
                  f"{_fmt(s['mean_steps_goal'])}, path / route length {_fmt(s['path_ratio_goal'], '.3f')}")
+    if "late" in s:
+        late = s["late"]
+        lines.append(f"  flown on to {1 + s['grace']:g} x the budget, the {s['counts']['timeout']} timeouts end: "
+                     + ", ".join(f"{late[o]} {o}" for o in OUTCOMES if o != "timeout")
+                     + f", {late['timeout']} still timeout")
     if s.get("planner_failures"):
         lines.append(f"  planner failures (flown straight): {s['planner_failures']}")
     if "shield_decisions" in s:
@@ -195,15 +221,15 @@ def driver_env(meta: dict | None, a: argparse.Namespace) -> EnvConfig:
 
 def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
              planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None,
-             replan: bool = False):
+             replan: bool = False, grace: float = 0.0):
     """(summary dict, scenarios, results) for ``episodes`` seeded episodes; ``replan``: new plans
     under way as in the graph (``run_missions``), with the same planner."""
     routes = waypoint_fn(planner)
     scs = episode_scenarios(scenario, episodes, seed, routes)
     env = env or EnvConfig(motion=motion)
     res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress,
-                       replan=replan_planner(routes, replan))
-    summary = summarize(res)
+                       replan=replan_planner(routes, replan), grace=grace)
+    summary = summarize(res, grace)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))
     return summary, scs, res
@@ -249,6 +275,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cells", default=None,
                     help="with --matrix: only these cells (indices, e.g. 0-3,6); each keeps its own missions, so "
                          "parts run in separate processes merge with --reuse into the whole matrix")
+    ap.add_argument("--grace", type=float, default=0.0,
+                    help="fly a mission that times out on, up to (1 + GRACE) x its budget, and report how the "
+                         "timeouts end (late goals); outcomes are still judged at the budget (default 0: off)")
     a = ap.parse_args(argv)
     if a.matrix:
         return matrix_main(a)
@@ -258,7 +287,7 @@ def main(argv: list[str] | None = None) -> int:
         motion = env.motion
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
                                      keep_tracks=9 if a.plot else 0, progress=not a.quiet, env=env,
-                                     replan=a.replan == "on")
+                                     replan=a.replan == "on", grace=a.grace)
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
@@ -321,7 +350,7 @@ def matrix_main(a: argparse.Namespace) -> int:
         skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
                                                           for d in drivers}
         rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, env, progress=not a.quiet,
-                             replan=a.replan == "on", skip=skip)
+                             replan=a.replan == "on", skip=skip, grace=a.grace)
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
@@ -341,7 +370,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     prefix.with_suffix(".json").write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
          "sensor": env.sonar.profile, "replan": a.replan, "observation": env.layout.to_dict(),
-         "policy": policy, "rows": rows}, indent=1))
+         "policy": policy, "grace": a.grace, "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
         mx.plot(rows, a.plot, title)

@@ -186,13 +186,13 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
                env=None, progress: bool = False, replan: bool = False,
-               skip: "set[tuple[int, str]] | frozenset" = frozenset()) -> list[dict]:
+               skip: "set[tuple[int, str]] | frozenset" = frozenset(), grace: float = 0.0) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver)
     not in ``skip`` (rows another run made, or cells another process runs).
 
     Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
     in effect), so drivers meet identical missions and cells never share one, whichever cells a
-    run does."""
+    run does. ``grace``: see ``run_missions``; each row then counts its late goals (``late_goal``)."""
     from cage_sim.mission import EnvConfig
 
     from .evaluate import replan_planner, run_missions, summarize
@@ -213,11 +213,12 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
         for dname, drv in todo.items():
-            s = summarize(run_missions(drv, scs, env, progress=progress, replan=replan_planner(routes, replan)))
+            s = summarize(run_missions(drv, scs, env, progress=progress, replan=replan_planner(routes, replan),
+                                       grace=grace), grace)
             rows.append({"cell": k, "sensor": env.sonar.profile, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
                          "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"],
-                         "replans": s["replans"]})
+                         "replans": s["replans"], **({"late_goal": s["late"]["goal"]} if grace else {})})
             if progress:
                 print(f"cell {k} {cell.name} {dname}: " + " ".join(
                     f"{o} {100 * s['rates'][o]:.1f}%" for o in s["rates"]), flush=True)
@@ -233,9 +234,10 @@ def _pct(k: int, n: int) -> str:
 def markdown(rows: list[dict], title: str) -> str:
     """The matrix as a markdown table: goal and collision % with 95 % Wilson intervals per driver."""
     drivers = list(dict.fromkeys(r["driver"] for r in rows))
+    late = any("late_goal" in r for r in rows)   # a run with a grace: timeouts that reach the goal later
     head = "| current m/s | obstacles | goal | schools | " + " | ".join(
-        f"{d}: goal % | {d}: collision %" for d in drivers) + " |"
-    lines = [f"### {title}", "", head, "|" + "---|" * (4 + 2 * len(drivers))]
+        f"{d}: goal % | {d}: collision %" + (f" | {d}: late goals" if late else "") for d in drivers) + " |"
+    lines = [f"### {title}", "", head, "|" + "---|" * (4 + (2 + late) * len(drivers))]
     for k in dict.fromkeys(r["cell"] for r in rows):
         rs = {r["driver"]: r for r in rows if r["cell"] == k}
         r0 = next(iter(rs.values()))
@@ -243,6 +245,8 @@ def markdown(rows: list[dict], title: str) -> str:
         for d in drivers:   # a merged part may lack a driver's row in some cells
             r = rs.get(d)
             cells += [_pct(r["goal"], r["episodes"]), _pct(r["collision"], r["episodes"])] if r else ["-", "-"]
+            if late:
+                cells.append(str(r.get("late_goal", "-")) if r else "-")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
