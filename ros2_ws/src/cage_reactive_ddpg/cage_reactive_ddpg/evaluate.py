@@ -362,7 +362,8 @@ def matrix_main(a: argparse.Namespace) -> int:
     if a.reuse:
         policy += f" (rows of {sorted({r['driver'] for r in old})} from {a.reuse})"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {a.episodes} missions per cell, seed {a.seed}, "
-             f"planner {a.planner}, replan {a.replan}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}")
+             f"planner {a.planner}, replan {a.replan}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
+             + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else ""))
     md = mx.markdown(rows, title)
     print(md)
     prefix.with_suffix(".md").write_text(md)
