@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import torch
+import yaml
 from cage_sim.vec_env import CageNavVecEnv
 from safetensors.torch import load_file
 
@@ -118,6 +119,71 @@ def test_config_presets_files_and_overrides(tmp_path):
         config_mod.build(overrides=["tau=fast"])
 
 
+def _write(path: Path, text: str) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+def test_extends_reads_the_parent_first_and_merges_reward(tmp_path):
+    """A variant names only what it changes: the parent's keys, then its own; reward term by term;
+    the path is relative to the variant's file; the preset comes from the chain."""
+    _write(tmp_path / "base.yaml", "preset: study_low_lr\nbatch_size: 96\ngamma: 0.95\n"
+                                   "reward:\n  goal: 5\n  progress_weight: 0.5\n")
+    child = _write(tmp_path / "variants" / "child.yaml",
+                   "extends: ../base.yaml\nbatch_size: 128\nreward:\n  goal: 7\n")
+    cfg = config_mod.build(file=child)
+    assert (cfg.batch_size, cfg.gamma, cfg.lr_critic) == (128, 0.95, 1e-4)     # own, parent's, preset's
+    assert cfg.reward == {"goal": 7.0, "progress_weight": 0.5}
+    grandchild = _write(tmp_path / "g.yaml", "extends: variants/child.yaml\npreset: study\ngamma: 0.9\n")
+    cfg = config_mod.build(file=grandchild, overrides=["batch_size=64"])
+    assert (cfg.batch_size, cfg.gamma, cfg.lr_critic) == (64, 0.9, 1e-3)      # --set, own, own preset
+    assert "extends" not in config_mod.read_file(grandchild) and "extends" not in cfg.to_dict()
+
+
+@pytest.mark.parametrize("files,expect", [
+    ({"a.yaml": "extends: b.yaml\n", "b.yaml": "extends: a.yaml\n"}, r"extends itself \(a.yaml -> b.yaml -> a.yaml\)"),
+    ({"a.yaml": "extends: a.yaml\n"}, "extends itself"),
+    ({"a.yaml": "extends: nowhere.yaml\n"}, r"nowhere.yaml: cannot read"),
+    ({"a.yaml": "extends: [b.yaml]\n"}, "extends: expected a file name"),
+    ({"a.yaml": "extends: b.yaml\n", "b.yaml": "gamm: 0.9\n"}, "gamm: unknown config key"),
+])
+def test_a_bad_extends_chain_is_an_error_naming_the_file(tmp_path, files, expect):
+    for name, text in files.items():
+        _write(tmp_path / name, text)
+    with pytest.raises(ValueError, match=expect):
+        config_mod.build(file=tmp_path / "a.yaml")
+
+
+def test_print_config_expands_extends_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    """``train --print-config`` shows the config a run would record; read back, it builds the same."""
+    monkeypatch.chdir(tmp_path)
+    path = CONFIG_DIR / "sea_residual_replay_fls.yaml"
+    assert main(["--config", str(path), "--set", "seed=7", "--print-config"]) == 0
+    printed = yaml.safe_load(capsys.readouterr().out)
+    assert "extends" not in printed and printed["sensor"] == "fls" and printed["seed"] == 7
+    assert printed["replay_fraction"] == 0.25 and printed["expert"] == "flown"       # the parent's recipe
+    back = _write(tmp_path / "printed.yaml", yaml.safe_dump(printed))
+    assert config_mod.build(file=back) == config_mod.build(file=path, overrides=["seed=7"])
+    assert not any(tmp_path.glob("runs*"))
+
+
+def test_a_run_from_a_variant_records_the_expanded_config(tmp_path, tiny_overrides):
+    """policy.json and config.yaml hold every key, so a run is rebuilt without its config files."""
+    from cage_reactive_ddpg.policy import load_policy
+    _write(tmp_path / "cfg" / "base.yaml", "preset: study\nscenario: study2d\nn_envs: 2\n"
+                                          "prefill_steps: 100\neval_episodes: 2\nreward:\n  goal: 3\n")
+    child = _write(tmp_path / "cfg" / "child.yaml", "extends: base.yaml\nbatch_size: 48\n")
+    out = tmp_path / "run"
+    tiny = {k: v for k, v in tiny_overrides.items() if k not in ("batch_size", "eval_episodes")}
+    assert main(["--config", str(child), "--steps", "200", "--out", str(out), "--quiet",
+                 *[x for k, v in tiny.items() for x in ("--set", f"{k}={v}")]]) == 0
+    recorded = load_policy(out / "policy.safetensors").metadata["config"]
+    assert "extends" not in recorded and recorded["scenario"] == "study2d" and recorded["batch_size"] == 48
+    assert recorded["reward"] == {"goal": 3.0} and recorded == yaml.safe_load((out / "config.yaml").read_text())
+    assert config_mod.from_dict(recorded) == config_mod.build(file=child, overrides=tiny | {"total_steps": 200})
+
+
 CONFIG_DIR = Path(config_mod.__file__).parents[1] / "config"
 TRAINING_CONFIGS = sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")
                           if not p.stem.startswith("sweep"))     # sweep*.yaml are search spaces (test_sweep)
@@ -125,6 +191,29 @@ TRAINING_CONFIGS = sorted(p.stem for p in CONFIG_DIR.glob("*.yaml")
 
 def test_the_shipped_configs_are_found():
     assert {"sea_residual_replay", "sea_residual_replay_fls", "sea_guided_fls", "shipped"} <= set(TRAINING_CONFIGS)
+
+
+VARIANT_CONFIGS = [n for n in TRAINING_CONFIGS if "extends" in yaml.safe_load((CONFIG_DIR / f"{n}.yaml").read_text())]
+
+
+def test_the_profile_variants_extend_their_recipe():
+    assert {"sea_residual_replay_fls", "sea_residual_replay_mb360", "sea_residual_replay_scanning",
+            "sea_guided_fls"} <= set(VARIANT_CONFIGS)
+
+
+@pytest.mark.parametrize("name", VARIANT_CONFIGS)
+def test_a_variant_config_repeats_no_key_of_its_parent(name):
+    """A file that extends another states only what differs (so a change to the recipe reaches
+    every variant), and it differs in something."""
+    path = CONFIG_DIR / f"{name}.yaml"
+    own = yaml.safe_load(path.read_text())
+    parent_path = path.parent / own.pop("extends")
+    parent = config_mod.read_file(parent_path)
+    repeated = sorted(k for k, v in own.items() if k != "reward" and parent.get(k) == v)
+    repeated += sorted(f"reward.{k}" for k, v in (own.get("reward") or {}).items()
+                       if (parent.get("reward") or {}).get(k) == v)
+    assert not repeated, f"{name}.yaml repeats its parent's {repeated}"
+    assert config_mod.build(file=path) != config_mod.build(file=parent_path)
 
 
 @pytest.mark.parametrize("name", TRAINING_CONFIGS)

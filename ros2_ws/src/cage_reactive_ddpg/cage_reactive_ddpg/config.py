@@ -3,6 +3,10 @@
 Precedence (later wins): dataclass defaults (= the study's DDPG) < ``--preset`` < ``--config`` YAML
 < ``--set key=value`` overrides. Unknown keys are errors, so a typo never silently trains the
 wrong thing. Reward terms are written ``reward.<field>`` (the fields of ``cage_sim.mission.RewardConfig``).
+
+A YAML file may start from another with ``extends: other.yaml`` (a path relative to the file): the
+other file's keys first, then this file's (``reward`` merged term by term). So a variant names only
+what it changes, and the expanded config is what every run records (``to_dict``).
 """
 from __future__ import annotations
 
@@ -199,19 +203,45 @@ def apply(cfg: TrainConfig, updates: dict[str, Any]) -> TrainConfig:
     return cfg
 
 
+def _read_one(path: Path) -> dict[str, Any]:
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read ({err.strerror or err})") from None
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: not valid YAML ({' '.join(str(err).split())})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a mapping of config keys")
+    return data
+
+
+def read_file(file: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """A config file's keys with its ``extends:`` chain resolved: parents first, the file's own keys
+    win, ``reward`` merged term by term. A cycle or a missing parent is an error naming the file."""
+    path = Path(file)
+    key = path.resolve()
+    if key in _seen:
+        chain = " -> ".join(p.name for p in (*_seen, key))
+        raise ValueError(f"{path}: extends itself ({chain})")
+    data = _read_one(path)
+    parent = data.pop("extends", None)
+    if parent is None:
+        return data
+    if not isinstance(parent, str) or not parent:
+        raise ValueError(f"{path}: extends: expected a file name, got {parent!r}")
+    base = read_file(path.parent / parent, (*_seen, key))
+    merged = {**base, **data}
+    if isinstance(base.get("reward"), dict) and isinstance(data.get("reward"), dict):
+        merged["reward"] = {**base["reward"], **data["reward"]}
+    return merged
+
+
 def build(preset: str | None = None, file: str | Path | None = None,
           overrides: list[str] | dict | None = None, base: TrainConfig | None = None) -> TrainConfig:
     """Defaults (or ``base``, e.g. a checkpoint's config) < preset < YAML file < overrides
     (``key=value`` strings or a dict)."""
     cfg = dataclasses.replace(base) if base is not None else TrainConfig()
-    data: dict[str, Any] = {}
-    if file:
-        try:
-            data = yaml.safe_load(Path(file).read_text()) or {}
-        except yaml.YAMLError as err:
-            raise ValueError(f"{file}: not valid YAML ({' '.join(str(err).split())})") from None
-        if not isinstance(data, dict):
-            raise ValueError(f"{file}: expected a mapping of config keys")
+    data = read_file(file) if file else {}
     preset = preset or data.pop("preset", None)
     data.pop("preset", None)
     if preset:
@@ -237,3 +267,8 @@ def from_dict(d: dict) -> TrainConfig:
 
 def dumps(cfg: TrainConfig) -> str:
     return json.dumps(cfg.to_dict(), indent=2)
+
+
+def to_yaml(cfg: TrainConfig) -> str:
+    """The expanded config as a YAML file ``--config`` reads back (a run's ``config.yaml``)."""
+    return yaml.safe_dump(cfg.to_dict(), sort_keys=False)

@@ -6,6 +6,7 @@
   train --resume runs/ship                                          # continue it (its own config)
   train --resume runs/ship --steps 1200000                          # ... with a larger budget
   train --config config/shipped.yaml --seeds 5 --out runs/ship5     # five seeds (on Ray if installed)
+  train --config config/sea_residual_replay_fls.yaml --print-config  # the file with its extends: expanded
 
 Writes to ``--out``: policy.safetensors + policy.json (the final actor), best.safetensors/.json (best
 periodic evaluation), episodes.csv and learning_curve.png (the whole run, across resumes), tb/
@@ -521,6 +522,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--no-ray", action="store_true", help="with --seeds: one after another even if Ray is installed")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override any config key")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    ap.add_argument("--print-config", action="store_true",
+                    help="print the expanded config (extends:, preset, --set and flags applied) and exit")
     return ap.parse_args(argv)
 
 
@@ -556,10 +559,17 @@ def prepare_out(out: Path, force: bool) -> None:
             p.unlink()
 
 
+def _print_config(cfg: TrainConfig) -> int:
+    print(config_mod.to_yaml(cfg), end="")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     a = parse_args(argv)
     command = "train " + " ".join(shlex.quote(x) for x in (sys.argv[1:] if argv is None else argv))
     try:   # bad config keys, scenario names or files, checkpoints, a used --out: one clear line
+        if a.print_config and not a.resume:
+            return _print_config(config_from_args(a))
         if a.seeds:
             if a.resume:
                 raise ValueError("--seeds and --resume: resume each seed's folder on its own")
@@ -577,6 +587,8 @@ def main(argv: list[str] | None = None) -> int:
             except (ValueError, TypeError) as err:
                 raise CheckpointError(f"{ck}: its config does not fit this build ({_one_line(err)})") from None
             cfg = config_from_args(a, base)
+            if a.print_config:
+                return _print_config(cfg)
             out = Path(a.out) if a.out else ck.parent
             if out.resolve() != ck.parent.resolve():
                 prepare_out(out, a.force)
@@ -590,7 +602,7 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError, RuntimeError) as err:
         print(f"train: {err}", file=sys.stderr)
         return 2
-    (out / "config.yaml").write_text(__import__("yaml").safe_dump(cfg.to_dict(), sort_keys=False))
+    (out / "config.yaml").write_text(config_mod.to_yaml(cfg))
     final = trainer.run()
     rates = final.get("rates", {})
     print(f"done: {trainer.step} steps, {trainer.episodes} episodes, {trainer.updates} updates in "
