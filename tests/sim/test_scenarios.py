@@ -58,7 +58,7 @@ def test_builtin_full_cage_loads():
     ({"colour": "red"}, "colour"),
     ({"net_radius": "big"}, "net_radius"),
     ({"goal": [1.0]}, "goal"),
-    ({"known_obstacles": [{"shape": "hexagon", "x": 1.0, "y": 1.0, "size": 1.0}]}, "known_obstacles[0]"),
+    ({"known_obstacles": [{"shape": "hexagon", "x": 1.0, "y": 1.0, "size": 1.0}]}, "known_obstacles[0].shape"),
     ({"known_obstacles": [{"shape": "square", "x": 1.0, "y": 1.0}]}, "known_obstacles[0].size"),
     ({"unknown_obstacles": [{"shape": "circle", "x": 1.0, "y": 1.0, "size": 1.0, "speed": 2}]},
      "unknown_obstacles[0].speed"),

@@ -134,23 +134,7 @@ def _point(value: Any, where: str, n: int) -> tuple[float, ...]:
 
 
 def _obstacles(items: list, where: str) -> tuple[Obstacle, ...]:
-    out = []
-    for i, item in enumerate(items):
-        here = f"{where}[{i}]"
-        if not isinstance(item, dict):
-            raise ScenarioError(f"{here}: expected a mapping, got {item!r}")
-        for key in item:
-            if key not in _OBSTACLE_KEYS:
-                raise ScenarioError(f"{here}.{key}: unknown key (allowed: {', '.join(_OBSTACLE_KEYS)})")
-        for key in ("shape", "x", "y", "size"):
-            if key not in item:
-                raise ScenarioError(f"{here}.{key}: missing")
-        vals = {k: _typed(v, _OBSTACLE_KEYS[k], f"{here}.{k}") for k, v in item.items()}
-        try:
-            out.append(Obstacle(**vals))
-        except ValueError as err:
-            raise ScenarioError(f"{here}: {err}") from None
-    return tuple(out)
+    return _records(items, _OBSTACLE_KEYS, ("shape", "x", "y", "size"), where, Obstacle)
 
 
 def _records(items: list, keys: dict, required: tuple[str, ...], where: str, make) -> tuple:
