@@ -354,13 +354,22 @@ def figure(examples, out: Path) -> Path:
         ax.plot(*sc.goal, "r*", ms=12, label="goal")
         ax.set_title(f"RRT, max step {step} m: {r.samples} samples, {r.vertices} vertices, "
                      f"{r.planning_time * 1e3:.2f} ms")
-        ax.set_aspect("equal")
-        ax.set_xlim(-w.net_radius - 1, w.net_radius + 1)
-        ax.set_ylim(-w.net_radius - 1, w.net_radius + 1)
-        ax.legend(loc="lower right", fontsize=7)
+        _frame(ax, w)
+    return _save(fig, out / "rrt_figure6.png")
+
+
+def _frame(ax, w) -> None:
+    """The whole cage, to scale, with the legend in a corner."""
+    ax.set_aspect("equal")
+    ax.set_xlim(-w.net_radius - 1, w.net_radius + 1)
+    ax.set_ylim(-w.net_radius - 1, w.net_radius + 1)
+    ax.legend(loc="lower right", fontsize=7)
+
+
+def _save(fig, path: Path) -> Path:
+    import matplotlib.pyplot as plt
     fig.tight_layout()
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "rrt_figure6.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -402,16 +411,8 @@ def figure_optimal(cage_queries, out: Path) -> Path:
     ax.plot(*start, "g^", ms=9, label="start")
     ax.plot(*goal, "r*", ms=12, label="goal")
     ax.set_title(f"Optimal and flyable paths (clearance {m:g} m, turn radius {base.turning_radius:.2f} m)")
-    ax.set_aspect("equal")
-    ax.set_xlim(-w.net_radius - 1, w.net_radius + 1)
-    ax.set_ylim(-w.net_radius - 1, w.net_radius + 1)
-    ax.legend(loc="lower right", fontsize=7)
-    fig.tight_layout()
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "rrt_optimal_flyable.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    _frame(ax, w)
+    return _save(fig, out / "rrt_optimal_flyable.png")
 
 
 def main(argv=None) -> int:
