@@ -144,7 +144,7 @@ def test_extends_reads_the_parent_first_and_merges_reward(tmp_path):
 @pytest.mark.parametrize("files,expect", [
     ({"a.yaml": "extends: b.yaml\n", "b.yaml": "extends: a.yaml\n"}, r"extends itself \(a.yaml -> b.yaml -> a.yaml\)"),
     ({"a.yaml": "extends: a.yaml\n"}, "extends itself"),
-    ({"a.yaml": "extends: nowhere.yaml\n"}, r"nowhere.yaml: cannot read"),
+    ({"a.yaml": "extends: nowhere.yaml\n"}, r"a.yaml: extends nowhere.yaml: no such file"),
     ({"a.yaml": "extends: [b.yaml]\n"}, "extends: expected a file name"),
     ({"a.yaml": "extends: b.yaml\n", "b.yaml": "gamm: 0.9\n"}, "gamm: unknown config key"),
 ])
