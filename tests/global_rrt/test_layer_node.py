@@ -74,7 +74,8 @@ def test_layer_learns_from_scans_and_the_plan_avoids_it(rig):
     goal.header.frame_id, goal.header.stamp = "map", time_msg((k + 1) * 1_000_000_000)
     goal.pose.position.x, goal.pose.position.y = 10.0, 0.0
     goal_pub.publish(goal)
-    assert probe.until(lambda: statuses and paths and len(paths[-1].poses) > 1, 10), node.output
+    # 30 s: on 2 cores under a load of ~8 (the suite beside two trainings) the answer took over 10 s
+    assert probe.until(lambda: statuses and paths and len(paths[-1].poses) > 1, 30), node.output
     assert statuses[-1].code == PlannerStatus.SUCCESS
     pts = np.array([(p.pose.position.x, p.pose.position.y) for p in paths[-1].poses])
     assert segment_clearance(real, pts, 0.05) >= 1.0 - 1e-6, "the plan goes around the learnt obstacle"
