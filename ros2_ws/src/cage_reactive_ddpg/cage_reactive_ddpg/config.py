@@ -229,9 +229,10 @@ def read_file(file: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
         return data
     if not isinstance(parent, str) or not parent:
         raise ValueError(f"{path}: extends: expected a file name, got {parent!r}")
-    if not (path.parent / parent).is_file():
-        raise ValueError(f"{path}: extends {parent}: no such file ({path.parent / parent})")
-    base = read_file(path.parent / parent, (*_seen, key))
+    parent_path = path.parent / parent
+    if not parent_path.is_file():
+        raise ValueError(f"{path}: extends {parent}: no such file ({parent_path})")
+    base = read_file(parent_path, (*_seen, key))
     merged = {**base, **data}
     if isinstance(base.get("reward"), dict) and isinstance(data.get("reward"), dict):
         merged["reward"] = {**base["reward"], **data["reward"]}
