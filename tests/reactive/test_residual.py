@@ -86,6 +86,16 @@ def test_residual_policy_file_says_so_and_is_refused_for_another_controller(tmp_
     with pytest.raises(PolicyLoadError, match="pursuit is 'yes', expected true or false"):
         load_policy(tmp_path / "r.safetensors")
     meta["residual_base"]["params"]["pursuit"] = False
+    meta["residual_base"]["params"]["handover_tail"] = 2.5
+    (tmp_path / "r.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match="handover_tail is 2.5, expected an integer"):
+        load_policy(tmp_path / "r.safetensors")
+    meta["residual_base"]["params"]["handover_tail"] = 2
+    meta["residual_base"]["params"]["handover"] = -1
+    (tmp_path / "r.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match="handover and handover_tail must be >= 0, got -1 and 2"):
+        load_policy(tmp_path / "r.safetensors")
+    meta["residual_base"]["params"]["handover"] = 0.0
     meta["network"]["residual"] = False
     (tmp_path / "r.json").write_text(json.dumps(meta))
     with pytest.raises(PolicyLoadError, match="obs_dim"):
@@ -100,17 +110,21 @@ def test_the_base_controller_is_the_one_recorded_and_the_shield_falls_back_to_it
     from cage_sim.driver import fallback_for, same_decisions
     a = _actor(ENV.layout.size + 1)
     cfg = {"config": {"sensor": "study", "observation": "v2", "velocity": True, "memory_bins": 72}}
-    save_policy(tmp_path / "p.safetensors", a, cfg, ENV.layout, base=ArcController(ENV.layout, pursuit=True))
+    base = ArcController(ENV.layout, pursuit=True, handover=2.0, handover_tail=5)
+    save_policy(tmp_path / "p.safetensors", a, cfg, ENV.layout, base=base)
     meta = json.loads((tmp_path / "p.json").read_text())
     assert meta["residual_base"]["params"]["pursuit"] is True
+    assert (meta["residual_base"]["params"]["handover"], meta["residual_base"]["params"]["handover_tail"]) == (2.0, 5)
     pol = load_policy(tmp_path / "p.safetensors")
-    assert pol.residual_base.pursuit is True
+    assert pol.residual_base.tunables() == base.tunables()
     shield, _, _ = load_driver(str(tmp_path / "p.safetensors"), shield=True)
-    assert shield.fallback.pursuit is True and same_decisions(shield.fallback, shield.policy.residual_base)
-    del meta["residual_base"]["params"]["pursuit"]
+    assert shield.fallback.tunables() == base.tunables() and same_decisions(shield.fallback, shield.policy.residual_base)
+    for k in ("pursuit", "handover", "handover_tail"):
+        del meta["residual_base"]["params"][k]
     (tmp_path / "p.json").write_text(json.dumps(meta))
     old = load_policy(tmp_path / "p.safetensors")
     assert old.residual_base.pursuit is False and fallback_for(old, old.layout).pursuit is False
+    assert old.residual_base.handover == 0.0 and fallback_for(old, old.layout).handover == 0.0
     assert fallback_for(ArcController(ENV.layout, pursuit=True), ENV.layout).pursuit is False   # not residual
 
 
@@ -135,7 +149,7 @@ def test_residual_training_feeds_the_flown_baselines_action(tmp_path, tiny_overr
     over = {**tiny_overrides, "scenario": "cage?current=0.3&schools=2", "motion": "continuous",
             "planner": "rrt", "total_steps": 600, "n_envs": 4, "prefill_steps": 200, "eval_episodes": 4,
             "velocity": True, "observation": "v2", "memory_bins": 72, "expert": "flown", "residual": True,
-            "bc_weight": 1.0, "expert_pursuit": True}
+            "bc_weight": 1.0, "expert_pursuit": True, "expert_handover": 2.0, "expert_handover_tail": 4}
     tr = Trainer(config_mod.build("fast", overrides=over), tmp_path / "r", progress=False)
     tr.run()
     n = tr.buffer.size
@@ -146,10 +160,17 @@ def test_residual_training_feeds_the_flown_baselines_action(tmp_path, tiny_overr
     pol = load_policy(tmp_path / "r" / "policy.safetensors")
     assert pol.residual_base is not None and pol.metadata["config"]["expert"] == "flown"
     assert tr.expert.pursuit and pol.residual_base.pursuit       # the base it was trained on
+    assert (tr.expert.handover, tr.expert.handover_tail) == (pol.residual_base.handover, pol.residual_base.handover_tail) == (2.0, 4)
 
 
 def test_a_residual_needs_the_flown_expert():
     with pytest.raises(ValueError, match="residual: needs expert: flown"):
         config_mod.build(overrides={"residual": True, "expert": "baseline"})
-    with pytest.raises(ValueError, match="expert_pursuit: needs an expert"):
+    with pytest.raises(ValueError, match="expert_pursuit / expert_handover: need an expert"):
         config_mod.build(overrides={"expert_pursuit": True})
+    with pytest.raises(ValueError, match="expert_pursuit / expert_handover: need an expert"):
+        config_mod.build(overrides={"expert_handover": 2.0})
+    with pytest.raises(ValueError, match="expert_handover: must be >= 0 m"):
+        config_mod.build(overrides={"expert": "flown", "expert_handover": -1.0})
+    with pytest.raises(ValueError, match="expert_handover_tail: 0-9 decisions"):
+        config_mod.build(overrides={"expert": "flown", "expert_handover": 2.0, "expert_handover_tail": 10})

@@ -207,6 +207,40 @@ def test_pursuit_turns_to_a_goal_behind_that_the_drift_made_it_put_off(side):
     assert pursuit.tunables()["pursuit"] is True and plain.tunables()["pursuit"] is False
 
 
+def _net_arc(radius: float, bearing_deg: float, gap: float) -> np.ndarray:
+    """Returns of a net wall (a circle of ``radius``) whose nearest point lies ``gap`` m away at
+    ``bearing_deg``, within 9 m of the vehicle."""
+    u = np.array([math.cos(math.radians(bearing_deg)), math.sin(math.radians(bearing_deg))])
+    th = np.radians(np.arange(0.0, 360.0, 1.0))
+    wall = -(radius - gap) * u + radius * np.stack([np.cos(th), np.sin(th)], axis=1)
+    return wall[np.hypot(*wall.T) < 9.0]
+
+
+def test_handover_flies_through_an_intermediate_waypoint_by_the_net_in_a_drift():
+    """The waypoint 2.3 m ahead-left, the net 5 m beyond it, a 0.45 m/s drift toward the net (the
+    traced cell-23 detours, session 38): every candidate through the waypoint drifts on into the
+    net over its 10-decision rollout, so the plain controller turns hard away. With ``handover``
+    the rollout is checked only ``handover_tail`` decisions past the waypoint's 2 m (where the
+    route hands over to the next one): it flies on toward it. A long tail is the plain check."""
+    p = Perception(_net_arc(20.0, 35.0, 5.0), drift=np.array([0.0, 0.45]), final=False)
+    err = math.radians(31)
+    assert ArcController().decide(2.3, err, p) == -1.0
+    assert ArcController(handover=2.0, handover_tail=2).decide(2.3, err, p) >= 0.0
+    assert ArcController(handover=2.0, handover_tail=9).decide(2.3, err, p) == -1.0
+    assert ArcController(handover=2.0).tunables()["handover"] == 2.0 and ArcController().tunables()["handover"] == 0.0
+
+
+def test_handover_still_checks_the_wall_right_behind_the_waypoint():
+    """A wall 1.5 m beyond a waypoint dead ahead: within the tail, so the controller still turns
+    off rather than fly through the waypoint into it, drift or not."""
+    wall = np.stack([np.full(41, 4.0), np.linspace(-4.0, 4.0, 41)], axis=1)
+    for drift in (np.zeros(2), np.array([0.3, 0.0])):
+        p = Perception(wall, drift=drift, final=False)
+        ctrl = ArcController(handover=2.0, handover_tail=2)
+        a = ctrl.decide(2.5, 0.0, p)
+        assert abs(a) >= 0.3, a
+
+
 class Pursuit:
     """A 'policy' that turns as hard as it may at the waypoint: the learned policies' habit that
     orbits a goal lying beside the vehicle."""

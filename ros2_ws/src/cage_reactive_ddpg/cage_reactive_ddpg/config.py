@@ -80,6 +80,8 @@ class TrainConfig:
     q_filter: bool = True                # clone only where Q(s, expert) >= Q(s, actor) (Nair et al. 2018)
     residual: bool = False               # the actor moves the expert's action (networks.residual_action); needs expert: flown
     expert_pursuit: bool = False         # the expert (a residual policy's base) re-aims in one candidate (controller.py)
+    expert_handover: float = 0.0         # m: the expert's rollouts stop being checked past an intermediate waypoint this near
+    expert_handover_tail: int = 2        # ... after this many more decisions (controller.py, ``handover``)
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
     replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
     replay_max_tries: int = 3            # times one mission may be flown in all
@@ -112,8 +114,11 @@ class TrainConfig:
             raise ValueError(f"expert: must be one of {EXPERTS}, got {self.expert!r}")
         if (self.expert_fraction > 0 or self.bc_weight > 0) and not self.expert:
             raise ValueError("expert_fraction / bc_weight need an expert (expert: baseline)")
-        if self.expert_pursuit and not self.expert:
-            raise ValueError("expert_pursuit: needs an expert (the controller it changes)")
+        if (self.expert_pursuit or self.expert_handover) and not self.expert:
+            raise ValueError("expert_pursuit / expert_handover: need an expert (the controller they change)")
+        if not (self.expert_handover >= 0 and 0 <= self.expert_handover_tail < 10):
+            raise ValueError(f"expert_handover: must be >= 0 m, got {self.expert_handover!r}; "
+                             f"expert_handover_tail: 0-9 decisions, got {self.expert_handover_tail!r}")
         if self.residual and self.expert != "flown":
             raise ValueError(f"residual: needs expert: flown (the base action is the flown baseline's), "
                              f"got expert: {self.expert!r}")

@@ -235,18 +235,27 @@ def _ensemble_actor(state: dict, expected: dict, members, residual: bool, wpath:
     return MeanActor([NumpyActor({k: state[member_key(i, k)] for k in expected}, residual) for i in range(members)])
 
 
+# The base controller's options a residual policy's file chooses, with their values when absent.
+CHOICES = {"pursuit": False, "handover": 0.0, "handover_tail": 2}
+_KIND = {bool: "true or false", float: "a number", int: "an integer"}
+
+
 def _residual_base(meta: dict, layout, vehicle: VehicleParams, mpath: Path) -> ArcController:
     """The controller a residual policy moves; refused when its parameters differ from this build's
-    (the policy learnt to correct that controller, not another), naming each. ``pursuit`` is a
-    choice, taken from the file (absent in files written before it existed: off)."""
+    (the policy learnt to correct that controller, not another), naming each. ``CHOICES`` are
+    taken from the file (absent in files written before they existed: their defaults, off)."""
     rec = (meta.get("residual_base") or {}).get("params")
     if not isinstance(rec, dict):
         raise PolicyLoadError(f"policy metadata {mpath}: a residual policy without residual_base.params")
-    rec = {"pursuit": False, **rec}
-    if not isinstance(rec["pursuit"], bool):
-        raise PolicyLoadError(f"policy metadata {mpath}: residual_base.params.pursuit is {rec['pursuit']!r}, "
-                              "expected true or false")
-    base = ArcController(layout, vehicle, pursuit=rec["pursuit"])
+    rec = {**CHOICES, **rec}
+    for k, default in CHOICES.items():
+        if type(rec[k]) is not type(default) and not (isinstance(default, float) and type(rec[k]) is int):
+            raise PolicyLoadError(f"policy metadata {mpath}: residual_base.params.{k} is {rec[k]!r}, "
+                                  f"expected {_KIND[type(default)]}")
+    if rec["handover"] < 0 or rec["handover_tail"] < 0:
+        raise PolicyLoadError(f"policy metadata {mpath}: residual_base.params.handover and handover_tail "
+                              f"must be >= 0, got {rec['handover']!r} and {rec['handover_tail']!r}")
+    base = ArcController(layout, vehicle, **{k: rec[k] for k in CHOICES})
     mine = base.tunables()
     diffs = [f"{k}: file has {rec.get(k)!r}, this build uses {v!r}" for k, v in mine.items()
              if not (isinstance(rec.get(k), (int, float)) and math.isclose(rec[k], v, rel_tol=1e-9))]

@@ -133,7 +133,8 @@ class Trainer:
         # Expert guidance: the classical baseline labels every transition (on the observation alone,
         # or as it is flown: FlownLabeller); a share of the episodes is flown by it (demonstrations).
         # A residual actor reads that label as its base action.
-        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle, pursuit=cfg.expert_pursuit) \
+        self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle, pursuit=cfg.expert_pursuit,
+                                    handover=cfg.expert_handover, handover_tail=cfg.expert_handover_tail) \
             if cfg.expert else None
         self.labeller = None if self.expert is None else \
             (FlownLabeller if cfg.expert == "flown" else ObservationLabeller)(self.expert)

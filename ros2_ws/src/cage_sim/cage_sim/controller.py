@@ -53,6 +53,8 @@ class ArcController:
     comfort_weight: float = 2.0
     goal_pass: float = 0.8          # m: a rollout point this near the goal counts as reaching it
     pursuit: bool = False           # one more candidate: re-aim at the waypoint at every decision
+    handover: float = 0.0           # m: an intermediate waypoint this near counts as reached (0: off)
+    handover_tail: int = 2          # decisions still checked after reaching it
 
     def __post_init__(self) -> None:
         self._beams = self.layout.angles if hasattr(self.layout, "angles") else \
@@ -142,9 +144,9 @@ class ArcController:
         else:
             clear_along = np.full(traj.shape[:2], np.inf)
         if p.final:   # the mission ends on passing through the goal: what comes after is never flown
-            passed = np.cumsum(to_goal < self.goal_pass, axis=1) > 0
-            after = np.concatenate([np.zeros_like(passed[:, :1]), passed[:, :-1]], axis=1)
-            clear_along = np.where(after, np.inf, clear_along)
+            clear_along = np.where(_after(to_goal < self.goal_pass, 1), np.inf, clear_along)
+        elif self.handover > 0:   # the route hands over to the next waypoint: the rest is not flown
+            clear_along = np.where(_after(to_goal < self.handover, 1 + 2 * self.handover_tail), np.inf, clear_along)
         clearance = clear_along.min(axis=1)
         # Closest approach to the waypoint, counted only along the part flown before getting too close.
         blocked = np.cumsum(clear_along < self.min_clearance, axis=1) > 0
@@ -220,7 +222,14 @@ class ArcController:
         """The controller's own parameters (not the layout or the vehicle): what a residual
         policy's file records, since its actions are moves of this controller's."""
         return {k: getattr(self, k) for k in ("horizon", "min_clearance", "comfort", "comfort_weight", "goal_pass",
-                                              "pursuit")}
+                                              "pursuit", "handover", "handover_tail")}
+
+
+def _after(reached: np.ndarray, lag: int) -> np.ndarray:
+    """[cand, point] True from ``lag`` points after a candidate's first ``reached`` point on."""
+    seen = np.cumsum(reached, axis=1) > 0
+    lag = min(lag, seen.shape[1])
+    return np.concatenate([np.zeros_like(seen[:, :lag]), seen[:, :-lag]], axis=1)
 
 
 def act_rows(act_one, obs: np.ndarray) -> np.ndarray:
