@@ -23,6 +23,14 @@ away from the goal. Off by default: the classical baseline, and residual policie
 stay as they were; a residual policy's file records it (``tunables``) and its shield's fallback is
 built alike (``driver.fallback_for``). A residual policy retrained on it did no better in the cells
 it was made for (README, session 35).
+
+``handover`` (m, 0 = off) stops checking a candidate ``handover_tail`` decisions after it comes
+that near an intermediate waypoint (not the goal): the route then hands over to the next waypoint
+(``RouteTracker.waypoint_radius``, 2 m), so the rest of a straight rollout is never flown. Why: by
+the net in a 0.5 m/s current, every candidate through such a waypoint drifts on into the net over
+its 10 decisions, so the plain controller turned away from a waypoint 2 m off (and the goal just
+beyond it) and flew a detour (session 38's cell-23 trace). The tail keeps a wall right behind the
+waypoint in the check. Off by default, recorded by residual policies like ``pursuit``.
 """
 from __future__ import annotations
 
