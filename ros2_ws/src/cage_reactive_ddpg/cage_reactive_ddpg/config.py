@@ -81,7 +81,7 @@ class TrainConfig:
     residual: bool = False               # the actor moves the expert's action (networks.residual_action); needs expert: flown
     expert_pursuit: bool = False         # the expert (a residual policy's base) re-aims in one candidate (controller.py)
     expert_handover: float = 0.0         # m: the expert's rollouts stop being checked past an intermediate waypoint this near
-    expert_handover_tail: int = 2        # ... after this many more decisions (controller.py, ``handover``)
+    expert_handover_tail: int = 5        # ... after this many more decisions (controller.py, ``handover``)
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
     replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
     replay_max_tries: int = 3            # times one mission may be flown in all

@@ -236,7 +236,7 @@ def _ensemble_actor(state: dict, expected: dict, members, residual: bool, wpath:
 
 
 # The base controller's options a residual policy's file chooses, with their values when absent.
-CHOICES = {"pursuit": False, "handover": 0.0, "handover_tail": 2}
+CHOICES = {"pursuit": False, "handover": 0.0, "handover_tail": 5}
 _KIND = {bool: "true or false", float: "a number", int: "an integer"}
 
 

@@ -62,7 +62,7 @@ class ArcController:
     goal_pass: float = 0.8          # m: a rollout point this near the goal counts as reaching it
     pursuit: bool = False           # one more candidate: re-aim at the waypoint at every decision
     handover: float = 0.0           # m: an intermediate waypoint this near counts as reached (0: off)
-    handover_tail: int = 2          # decisions still checked after reaching it
+    handover_tail: int = 5          # decisions still checked after reaching it (2: 3x the collisions, session 39)
 
     def __post_init__(self) -> None:
         self._beams = self.layout.angles if hasattr(self.layout, "angles") else \
