@@ -217,11 +217,13 @@ def _net_arc(radius: float, bearing_deg: float, gap: float) -> np.ndarray:
 
 
 def test_handover_flies_through_an_intermediate_waypoint_by_the_net_in_a_drift():
-    """The waypoint 2.3 m ahead-left, the net 5 m beyond it, a 0.45 m/s drift toward the net (the
-    traced cell-23 detours, session 38): every candidate through the waypoint drifts on into the
-    net over its 10-decision rollout, so the plain controller turns hard away. With ``handover``
-    the rollout is checked only ``handover_tail`` decisions past the waypoint's 2 m (where the
-    route hands over to the next one): it flies on toward it. A long tail is the plain check."""
+    """The waypoint 2.3 m ahead-left, the net 5 m away (under 3 m beyond the waypoint), a 0.45 m/s
+    drift toward the net (the traced cell-23 detours, session 38): every candidate through the
+    waypoint drifts on into the net over its 10-decision rollout, so the plain controller turns
+    hard away. With ``handover`` the rollout is checked only ``handover_tail`` decisions past the
+    waypoint's 2 m (where the route hands over to the next one): with a tail of 2 it flies on
+    toward it. A long tail is the plain check. (The default tail of 5 still turns away in this
+    tight geometry; on the traced decision it flew straight on.)"""
     p = Perception(_net_arc(20.0, 35.0, 5.0), drift=np.array([0.0, 0.45]), final=False)
     err = math.radians(31)
     assert ArcController().decide(2.3, err, p) == -1.0
