@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -235,8 +235,9 @@ def _ensemble_actor(state: dict, expected: dict, members, residual: bool, wpath:
     return MeanActor([NumpyActor({k: state[member_key(i, k)] for k in expected}, residual) for i in range(members)])
 
 
-# The base controller's options a residual policy's file chooses, with their values when absent.
-CHOICES = {"pursuit": False, "handover": 0.0, "handover_tail": 5}
+# The base controller's options a residual policy's file chooses, with their values when absent
+# (the controller's own defaults: off).
+CHOICES = {f.name: f.default for f in fields(ArcController) if f.name in ("pursuit", "handover", "handover_tail")}
 _KIND = {bool: "true or false", float: "a number", int: "an integer"}
 
 
