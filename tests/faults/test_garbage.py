@@ -25,6 +25,7 @@ BAD_PARAMETERS = [
     ("cage_sim", "vehicle_node", "time_scale:=0.000001"),
     ("cage_sim", "vehicle_node", "setpoint_timeout:=-1.0"),
     ("cage_sim", "sim_node", "n_beams:=0"),
+    ("cage_sim", "sim_node", "beam_width_deg:=45.0"),
     ("cage_sim", "sim_node", "marker_rate:=0.0"),
     ("cage_reactive_ddpg", "policy_node", "scan_timeout:=-1.0"),
     ("cage_reactive_ddpg", "policy_node", "max_invalid_fraction:=5.0"),

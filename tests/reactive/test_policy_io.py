@@ -196,3 +196,31 @@ def test_shipped_profile_policy_is_for_its_profile_only(name, profile):
         load_policy(path, profile="study")
     with pytest.raises(PolicyLoadError, match="name: file has 'cage-obs-v2', this build uses 'cage-obs-v1'"):
         load_policy(path, layout=EnvConfig().layout)          # a node building the study's observation
+
+
+def test_the_recorded_sonar_is_the_one_evaluate_and_the_node_rebuild(saved, tmp_path):
+    """A file's ``sonar`` record (every setting, written by the trainer since session 40) decides the
+    sonar ``env_config_for`` builds, so a policy is flown on the beams it learnt on even after its
+    profile's defaults change; without a record, the profile's defaults; a bad record is refused."""
+    from cage_reactive_ddpg.policy import env_config_for
+    from cage_sim.sonar import make_sonar
+    _, _, mpath = saved
+    meta = json.loads(mpath.read_text())
+    assert "sonar" not in meta and env_config_for(meta).sonar == make_sonar("study")
+    meta["config"] = {"sensor": "multibeam360"}
+    assert env_config_for(meta).sonar == make_sonar("multibeam360")
+    meta["sonar"] = make_sonar("multibeam360", beam_width_deg=5.0).to_dict()
+    assert math.degrees(env_config_for(meta).sonar.beam_width) == pytest.approx(5.0)
+    meta["sonar"]["dropout"] = 1.5
+    with pytest.raises(PolicyLoadError, match="sonar record .* invalid: sonar.dropout: must be in"):
+        env_config_for(meta)
+
+
+def test_the_multibeam360_policies_record_the_beams_they_learnt_on():
+    """``policy_mb360_guided`` learnt on the 5 deg beams of multibeam360 before session 40; its file
+    says so, and the evaluator flies it on them, not on today's 2 deg default."""
+    from cage_reactive_ddpg.policy import env_config_for
+    from cage_sim.sonar import make_sonar
+    assert math.degrees(make_sonar("multibeam360").beam_width) == pytest.approx(2.0)
+    pol = load_policy(shipped_path().with_name("policy_mb360_guided.safetensors"), profile="multibeam360")
+    assert math.degrees(env_config_for(pol.metadata).sonar.beam_width) == pytest.approx(5.0)

@@ -2,6 +2,8 @@
 config), refuses a used --out and bad files in one line; config overrides; the vector env speaks
 gymnasium's VectorEnv API."""
 import csv
+import math
+import re
 from pathlib import Path
 
 import gymnasium as gym
@@ -233,7 +235,7 @@ def test_memory_only_options_reach_the_policy_file_and_the_evaluator(tmp_path, t
     from cage_reactive_ddpg.policy import env_config_for, load_policy
     over = {**tiny_overrides, "scenario": "cage", "sensor": "scanning", "observation": "v2", "velocity": True,
             "memory_bins": 36, "memory_horizon": 6.0, "scan_in_obs": False, "n_envs": 2, "prefill_steps": 100,
-            "eval_episodes": 2}
+            "eval_episodes": 2, "sensor_settings": "{beam_width_deg: 3.0, sweep_time: 2.0}"}
     out = tmp_path / "run"
     assert main(["--steps", "200", "--out", str(out), "--quiet", *[x for k, v in over.items()
                                                                      for x in ("--set", f"{k}={v}")]]) == 0
@@ -241,6 +243,21 @@ def test_memory_only_options_reach_the_policy_file_and_the_evaluator(tmp_path, t
     layout = env_config_for(pol.metadata).layout
     assert (layout.scan, layout.memory_bins, layout.memory_horizon) == (False, 36, 6.0)
     assert layout == pol.layout and layout.size == 36 + 2 + 2
+    # the sonar's own settings too (sensor_settings), which the layout does not show
+    sonar = env_config_for(pol.metadata).sonar
+    assert pol.metadata["sonar"]["beam_width_deg"] == pytest.approx(3.0)
+    assert (math.degrees(sonar.beam_width), sonar.sweep_time) == (pytest.approx(3.0), 2.0)
+
+
+@pytest.mark.parametrize("settings, expect", [
+    ({"beam_width_deg": 45.0}, "sensor / sensor_settings: sonar.beam_width: must be in"),
+    ({"beam_wdth_deg": 2.0}, "sonar.beam_wdth_deg: unknown setting"),
+    ({"noise_std": "lots"}, "sonar.noise_std: expected a number"),
+    ("2 deg", "sensor_settings: expected dict"),
+])
+def test_bad_sensor_settings_are_refused_naming_the_setting(settings, expect):
+    with pytest.raises(ValueError, match=re.escape(expect)):
+        config_mod.build(overrides={"sensor": "multibeam360", "sensor_settings": settings})
 
 
 def _cli_tiny(tiny):

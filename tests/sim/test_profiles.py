@@ -23,9 +23,28 @@ def test_a_beam_cone_finds_a_small_circle_between_the_study_rays():
     a = math.radians(2.5)
     w = World(30.0, (), (Obstacle("circle", 10 * math.cos(a), 10 * math.sin(a), 0.15),))
     assert np.all(np.isinf(make_sonar("study").scan(w, 0.0, 0.0, 0.0)[:2]))
-    r = make_sonar("multibeam360", noise_std=0.0, dropout=0.0).scan(w, 0.0, 0.0, 0.0)
+    r = make_sonar("multibeam360", beam_width_deg=5.0, noise_std=0.0, dropout=0.0).scan(w, 0.0, 0.0, 0.0)
     assert r[0] == pytest.approx(9.85) and r[1] == pytest.approx(9.85)   # nearest point: 10 - 0.15
     assert np.isinf(r[2])
+
+
+def test_multibeam360_beams_are_2_deg_wide_5_deg_apart():
+    """A real head's 1-2 deg beams: the same small circle 10 m away, 2.5 deg off the axis, spans
+    1.6-3.4 deg and falls between beam 0 (+-1 deg) and beam 1 (4-6 deg); 4 m away it spans 0.4-4.6
+    deg and both beams see it. A wide obstacle no longer looks 2.5 deg wider on each side."""
+    mb = make_sonar("multibeam360", noise_std=0.0, dropout=0.0)
+    assert mb.n_beams == 72 and math.degrees(mb.beam_width) == pytest.approx(2.0)
+    assert math.degrees(mb.angle_increment) == pytest.approx(5.0)
+    a = math.radians(2.5)
+    for d, seen in ((10.0, False), (4.0, True)):
+        w = World(30.0, (), (Obstacle("circle", d * math.cos(a), d * math.sin(a), 0.15),))
+        r = mb.scan(w, 0.0, 0.0, 0.0)
+        assert np.isfinite(r[:2]).all() == seen and np.isinf(r[2:]).all()
+    # a 1.4 m circle 10 m dead ahead spans +-8.05 deg: the 2 deg beams at -5, 0, 5 deg see it, those
+    # at +-10 deg (9-11 deg) do not; 5 deg cones at +-10 deg (7.5-12.5 deg) do: it looks 5 deg wider
+    w = World(30.0, (), (Obstacle("circle", 10.0, 0.0, 1.4),))
+    hits = lambda s: int(np.isfinite(s.scan(w, 0.0, 0.0, 0.0)).sum())   # noqa: E731
+    assert hits(mb) == 3 and hits(make_sonar("multibeam360", beam_width_deg=5.0, noise_std=0.0, dropout=0.0)) == 5
 
 
 def test_cone_with_zero_width_equals_the_ideal_ray():

@@ -18,6 +18,7 @@ from typing import Any
 
 import yaml
 from cage_sim.mission import EnvConfig, RewardConfig
+from cage_sim.sonar import SonarConfigError, make_sonar
 
 
 # "baseline": the classical controller on the observation alone (drift from its velocity part,
@@ -35,6 +36,8 @@ class TrainConfig:
     planner: str = "none"                # training routes: none (straight), rrt, dense, dense_mix
     # --- sensor and observation (cage_sim.mission.EnvConfig; recorded in the policy's metadata) ---
     sensor: str = "study"                # sonar profile: study, multibeam360, fls, scanning
+    sensor_settings: dict = field(default_factory=dict)  # the profile's settings overridden, YAML units
+                                         # (cage_sim.sonar.make_sonar: beam_width_deg, n_beams, noise_std, ...)
     observation: str = "auto"            # v1 (the study's layout), v2, auto (v1 for plain study)
     velocity: bool = False               # v2: velocity over ground (DVL) in the observation
     memory_bins: int = 0                 # v2: egocentric memory of recent returns (0 = none)
@@ -95,7 +98,8 @@ class TrainConfig:
 
     # ------------------------------------------------------------------------------------
     def env_config(self) -> EnvConfig:
-        return EnvConfig(reward=RewardConfig(**self.reward), motion=self.motion, sonar=self.sensor,
+        return EnvConfig(reward=RewardConfig(**self.reward), motion=self.motion,
+                         sonar=make_sonar(self.sensor, **self.sensor_settings),
                          observation=self.observation, velocity=self.velocity, memory_bins=self.memory_bins,
                          memory_horizon=self.memory_horizon, scan_in_obs=self.scan_in_obs)
 
@@ -103,6 +107,12 @@ class TrainConfig:
         bad = set(self.reward) - {f.name for f in fields(RewardConfig)}
         if bad:
             raise ValueError(f"reward: unknown field(s) {sorted(bad)}")
+        if not isinstance(self.sensor_settings, dict):
+            raise ValueError(f"sensor_settings: must be a mapping of sonar settings, got {self.sensor_settings!r}")
+        try:
+            make_sonar(self.sensor, **self.sensor_settings)
+        except SonarConfigError as err:
+            raise ValueError(f"sensor / sensor_settings: {err}") from None
         if self.motion not in ("study", "continuous"):
             raise ValueError(f"motion: must be 'study' or 'continuous', got {self.motion!r}")
         if self.noise not in ("ou", "gaussian"):

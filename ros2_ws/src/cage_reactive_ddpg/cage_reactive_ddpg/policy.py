@@ -148,12 +148,26 @@ def profile_of(meta: dict) -> str:
     return str(meta.get("sensor_profile") or lay.get("profile") or cfg.get("sensor") or "study")
 
 
+def sonar_of(meta: dict):
+    """The sonar a policy was trained on: every setting its metadata records (``sonar``, written
+    since session 40), else its profile's defaults by name (older files; the shipped ones trained
+    before a profile's defaults changed record theirs by hand). A bad record: ``PolicyLoadError``."""
+    from cage_sim.sonar import SonarConfigError, make_sonar
+    rec = meta.get("sonar")
+    if rec is None:
+        return make_sonar((meta.get("config") or {}).get("sensor", "study"))
+    try:
+        return make_sonar(dict(rec))
+    except (SonarConfigError, TypeError, ValueError) as err:
+        raise PolicyLoadError(f"policy metadata: sonar record {rec!r} is invalid: {err}") from None
+
+
 def env_config_for(meta: dict, motion: str | None = None):
     """The ``EnvConfig`` a policy was trained with (sensor, observation options, motion): the
     evaluator must build the same observations. Files from before profiles: the study's v1."""
     from cage_sim.mission import EnvConfig
     cfg = meta.get("config") or {}
-    return EnvConfig(motion=motion or cfg.get("motion") or "continuous", sonar=cfg.get("sensor", "study"),
+    return EnvConfig(motion=motion or cfg.get("motion") or "continuous", sonar=sonar_of(meta),
                      observation=cfg.get("observation", "auto"), velocity=bool(cfg.get("velocity", False)),
                      memory_bins=int(cfg.get("memory_bins", 0)),
                      memory_horizon=float(cfg.get("memory_horizon", 10.0)),

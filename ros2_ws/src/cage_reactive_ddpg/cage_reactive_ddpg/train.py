@@ -410,6 +410,8 @@ class Trainer:
                              **({"hard_case_replay": self.replay.stats()} if self.replay is not None else {})}}
         if c.scenario == STUDY1D:
             meta["observation_layout"] = {"name": STUDY1D, "size": 1}
+        else:   # every setting of the sonar it learnt on: evaluate and policy_node rebuild this one
+            meta["sonar"] = self.env_cfg.sonar.to_dict()
         save_policy(self.out / f"{name}.safetensors", self.agent.actor, meta,
                     None if c.scenario == STUDY1D else self.env_cfg.layout, base=self.expert)
 

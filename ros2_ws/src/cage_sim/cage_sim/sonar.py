@@ -9,7 +9,11 @@ outside the net reports 0.
 
 Profiles (``PROFILES``; ``make_sonar(name, **overrides)``; facts from ../shared/REFERENCE.md):
   study         the study's 72 ideal rays over 360 deg, 5 deg apart, 20 m (bit-identical to before).
-  multibeam360  72 beams over 360 deg, each 5 deg wide (no gaps), 0.05 m noise, 2 % dropout.
+  multibeam360  72 beams over 360 deg, 5 deg apart, each 2 deg wide (a real head's 1-2 deg beams), 0.05 m
+                noise, 2 % dropout. Until session 40 each beam was 5 deg wide (no gaps): the nearest echo
+                anywhere in a 5 deg cone drawn on the beam's centre line made every obstacle look 2.5 deg
+                wider on each side and cost most of the 0.5 m/s timeouts
+                (docs/results/mb360_sea_timeouts_s39.md); ``beam_width_deg=5`` gives that sonar back.
   fls           forward-looking multibeam (Oculus M750d / Gemini 720 class: 120-130 deg, 1-2 deg beams,
                 up to 30-40 Hz): 130 deg sector, 64 beams of 2.03 deg, 15 Hz, 0.05 m noise, 1 % dropout.
   scanning      mechanical head (Ping360 class: 2 deg beam, 0.9 deg steps, 3-38 s per sweep): 180 beams
@@ -246,7 +250,7 @@ def _sector(n_beams: int, fov_deg: float) -> dict:
 PROFILES: dict[str, dict[str, Any]] = {
     "study": {"n_beams": 72, "fov_deg": 360.0, "beam_width_deg": 0.0, "max_range": 20.0, "noise_std": 0.0,
               "dropout": 0.0, "clutter": 0.0, "rate_hz": 1.0, "sweep_time": 0.0},
-    "multibeam360": {"n_beams": 72, "fov_deg": 360.0, "beam_width_deg": None, "max_range": 20.0,
+    "multibeam360": {"n_beams": 72, "fov_deg": 360.0, "beam_width_deg": 2.0, "max_range": 20.0,
                      "noise_std": 0.05, "dropout": 0.02, "clutter": 0.0, "rate_hz": 10.0, "sweep_time": 0.0},
     "fls": {"n_beams": 64, "fov_deg": 130.0, "beam_width_deg": None, "max_range": 20.0, "noise_std": 0.05,
             "dropout": 0.01, "clutter": 0.0, "rate_hz": 15.0, "sweep_time": 0.0},

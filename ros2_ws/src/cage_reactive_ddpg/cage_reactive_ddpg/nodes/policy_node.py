@@ -179,7 +179,8 @@ class PolicyNode(Node):
         except (AttributeError, KeyError, TypeError, IndexError) as err:   # a metadata field of the wrong shape
             raise ValueError(f"policy {spec or 'shipped'}: malformed metadata ({type(err).__name__}: {err})") from None
         rates = pol.metadata.get("evaluation", {}).get("rates", {})
-        self.get_logger().info(f"policy {pol.path} loaded (sensor {pol.profile!r}, layout "
+        self.get_logger().info(f"policy {pol.path} loaded (sensor {pol.profile!r}, trained on beams "
+                               f"{math.degrees(env.sonar.beam_width):g} deg wide, layout "
                                f"{pol.layout.to_dict().get('name')}; training evaluation: {rates}); "
                                f"safety shield {'on' if self.p['shield'] else 'off'}")
         if self.p["shield"]:

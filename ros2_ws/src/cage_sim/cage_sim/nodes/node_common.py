@@ -42,7 +42,8 @@ def check(name: str, value, ok: bool, want: str) -> None:
 
 
 # Sensor overrides a launch may set on top of the profile; -1 (the default) = the profile's own value.
-SENSOR_OVERRIDES = {"n_beams": -1, "max_range": -1.0, "noise_std": -1.0, "dropout": -1.0, "clutter": -1.0}
+SENSOR_OVERRIDES = {"n_beams": -1, "max_range": -1.0, "beam_width_deg": -1.0, "noise_std": -1.0, "dropout": -1.0,
+                    "clutter": -1.0}
 
 
 def declare_sensor(node, default: str = "study"):
@@ -56,7 +57,7 @@ def declare_sensor(node, default: str = "study"):
     check("n_beams", n, isinstance(n, int) and not isinstance(n, bool) and (n == -1 or 1 <= n <= 4096),
           "in [1, 4096] (-1: the profile's)")
     given = {"n_beams": n} if n != -1 else {}
-    for k in ("max_range", "noise_std", "dropout", "clutter"):
+    for k in ("max_range", "beam_width_deg", "noise_std", "dropout", "clutter"):
         v = p[k]
         check(k, v, isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
               and (v == -1 or v >= 0), ">= 0 (-1: the profile's)")
@@ -66,6 +67,7 @@ def declare_sensor(node, default: str = "study"):
         return make_sonar(p["sensor"], **given)
     except SonarConfigError as err:
         name = str(err).split(":", 1)[0].removeprefix("sonar.")
+        name = {"beam_width": "beam_width_deg"}.get(name, name)      # the model's field -> the parameter
         raise ValueError(f"parameter {name}:={given.get(name, p['sensor'])!r} is invalid: {str(err).split(':', 1)[-1].strip()}") from None
 
 

@@ -87,7 +87,7 @@ class SimNode(Node):
         # Compile (or load from numba's cache) the sonar before anyone waits on a scan.
         self.sonar.scan(self.world, *self.scenario.start)
         self.get_logger().info(f"sonar: profile {self.sonar.profile!r}, {self.sonar.n_beams} beams, "
-                               f"fov {math.degrees(self.sonar.fov):.0f} deg")
+                               f"fov {math.degrees(self.sonar.fov):.0f} deg, beams {math.degrees(self.sonar.beam_width):g} deg wide")
         self.map_pub.publish(world_to_map(self.world, 0, p["frame_id"]))
         self.marker_pub.publish(self.markers(0))
         self.get_logger().info(
