@@ -216,11 +216,13 @@ def test_the_recorded_sonar_is_the_one_evaluate_and_the_node_rebuild(saved, tmp_
         env_config_for(meta)
 
 
-def test_the_multibeam360_policies_record_the_beams_they_learnt_on():
-    """``policy_mb360_guided`` learnt on the 5 deg beams of multibeam360 before session 40; its file
-    says so, and the evaluator flies it on them, not on today's 2 deg default."""
+@pytest.mark.parametrize("name, width", [("policy_mb360", 2.0), ("policy_mb360_cone5", 5.0),
+                                         ("policy_mb360_guided", 5.0)])
+def test_the_multibeam360_policies_record_the_beams_they_learnt_on(name, width):
+    """The shipped ``policy_mb360`` learnt on today's 2 deg beams; the two that learnt on the 5 deg
+    cones of multibeam360 before session 40 say so, and the evaluator flies them on those."""
     from cage_reactive_ddpg.policy import env_config_for
     from cage_sim.sonar import make_sonar
     assert math.degrees(make_sonar("multibeam360").beam_width) == pytest.approx(2.0)
-    pol = load_policy(shipped_path().with_name("policy_mb360_guided.safetensors"), profile="multibeam360")
-    assert math.degrees(env_config_for(pol.metadata).sonar.beam_width) == pytest.approx(5.0)
+    pol = load_policy(shipped_path().with_name(f"{name}.safetensors"), profile="multibeam360")
+    assert math.degrees(env_config_for(pol.metadata).sonar.beam_width) == pytest.approx(width)
