@@ -57,18 +57,6 @@ def graph_mission(scenario: str, seed: int, policy: str, time_scale: float, sens
     return {"outcome": "error", "steps": 0, "detail": proc.stderr[-400:]}
 
 
-def sonar_params(policy: str, sensor: str = "") -> list[str]:
-    """``--sim-param`` arguments that give sim_node the beams the policy learnt on (its file's ``sonar``
-    record: beam count, width, range), which the profile's name alone does not fix."""
-    from cage_reactive_ddpg.evaluate import load_driver
-    from cage_reactive_ddpg.policy import sonar_of
-    meta = load_driver(policy or None, True, sensor or None)[2]
-    if not meta:
-        return []
-    s = sonar_of(meta).to_dict()
-    return [a for k in ("n_beams", "max_range", "beam_width_deg") for a in ("--sim-param", f"{k}:={s[k]!r}")]
-
-
 def offline_missions(scenario: str, seeds: list[int], policy: str, sensor: str = "", shield: str = "on",
                      noise: str = "off", replan: str = "off") -> list:
     from dataclasses import replace
@@ -115,7 +103,7 @@ def main() -> None:
     t_off = time.perf_counter() - t0
     graph = []
     t0 = time.perf_counter()
-    extra = ("--replan", args.replan, *sonar_params(args.policy, args.sensor))
+    extra = ("--replan", args.replan)
     for i, s in enumerate(seeds):
         graph.append(graph_mission(args.scenario, s, args.policy, args.time_scale, args.sensor, args.shield,
                                    args.noise, extra))

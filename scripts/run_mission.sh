@@ -19,7 +19,8 @@
 #
 # --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
 # policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
-# --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0);
+# --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0); a policy
+# file's recorded beams (n_beams, max_range, beam_width_deg) go to sim_node unless --sim-param sets them;
 # --rrt-param passes an rrt_node parameter (--rrt-param obstacle_layer:=true, --rrt-param planner:=optimal);
 # --policy-param passes a policy_node parameter (--policy-param replan_offset:=0.0);
 # --shield off runs a learned policy raw (no safety shield); --replan off switches policy_node's replan
@@ -50,7 +51,7 @@ while [ $# -gt 0 ]; do
     --policy-param) policy_extra+=(-p "$2"); shift 2 ;;
     --shield) shield=$2; shift 2 ;;
     --replan) replan=$2; shift 2 ;;
-    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     *) echo "run_mission.sh: unknown argument $1" >&2; exit 64 ;;
   esac
 done
@@ -134,6 +135,18 @@ policy_args=()
 [ "$replan" = off ] && policy_args+=(-p "replan_offset:=0.0" -p "replan_after:=1000000")
 policy_args+=("${policy_extra[@]}")
 [ -n "$sensor" ] && policy_args+=(-p "sensor:=$sensor") && sim_params+=(-p "sensor:=$sensor")
+# A policy file records the sonar it learnt on (its JSON's `sonar`): sim_node scans with those beams
+# (count, width, range), so the graph flies it as `evaluate` does; a --sim-param given here still wins.
+if [ -n "$policy" ] && [ "$policy" != baseline ]; then
+  beams=$("$py" -c 'import json, pathlib, sys
+p = pathlib.Path(sys.argv[1]); p = p.with_suffix(".json") if p.suffix in (".safetensors", ".json") else p.with_name(p.name + ".json")
+try:
+    s = json.loads(p.read_text()).get("sonar") or {}
+    print(" ".join(f"{k}:={t(s[k])!r}" for k, t in (("n_beams", int), ("max_range", float), ("beam_width_deg", float)) if k in s))
+except (OSError, ValueError, TypeError, AttributeError):
+    pass   # policy_node names what is wrong with the file' "$policy")
+  for b in $beams; do sim_params=(-p "$b" "${sim_params[@]}"); done
+fi
 [ -n "$record" ] && start recorder cage_sim recorder_node --ros-args -r "__ns:=$ns" -p "output:=$record"
 start policy_node cage_reactive_ddpg policy_node --ros-args "${shared[@]}" "${policy_args[@]}"
 start rrt_node cage_global_rrt rrt_node --ros-args "${rrt_params[@]}" "${shared[@]}" "${rrt_extra[@]}"
