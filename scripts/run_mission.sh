@@ -20,7 +20,7 @@
 # --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
 # policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
 # --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0); a policy
-# file's recorded beams (n_beams, max_range, beam_width_deg) go to sim_node unless --sim-param sets them;
+# file's recorded sonar (profile, n_beams, max_range, beam_width_deg) goes to sim_node unless set here;
 # --rrt-param passes an rrt_node parameter (--rrt-param obstacle_layer:=true, --rrt-param planner:=optimal);
 # --policy-param passes a policy_node parameter (--policy-param replan_offset:=0.0);
 # --shield off runs a learned policy raw (no safety shield); --replan off switches policy_node's replan
@@ -135,14 +135,15 @@ policy_args=()
 [ "$replan" = off ] && policy_args+=(-p "replan_offset:=0.0" -p "replan_after:=1000000")
 policy_args+=("${policy_extra[@]}")
 [ -n "$sensor" ] && policy_args+=(-p "sensor:=$sensor") && sim_params+=(-p "sensor:=$sensor")
-# A policy file records the sonar it learnt on (its JSON's `sonar`): sim_node scans with those beams
-# (count, width, range), so the graph flies it as `evaluate` does; a --sim-param given here still wins.
+# A policy file records the sonar it learnt on (its JSON's `sonar`): sim_node scans with its profile and
+# beams (count, width, range), so the graph flies it as `evaluate` does; --sensor and --sim-param still win.
 if [ -n "$policy" ] && [ "$policy" != baseline ]; then
   beams=$("$py" -c 'import json, pathlib, sys
 p = pathlib.Path(sys.argv[1]); p = p.with_suffix(".json") if p.suffix in (".safetensors", ".json") else p.with_name(p.name + ".json")
 try:
     s = json.loads(p.read_text()).get("sonar") or {}
-    print(" ".join(f"{k}:={t(s[k])!r}" for k, t in (("n_beams", int), ("max_range", float), ("beam_width_deg", float)) if k in s))
+    beams = [f"{k}:={t(s[k])!r}" for k, t in (("n_beams", int), ("max_range", float), ("beam_width_deg", float)) if k in s]
+    print(" ".join((["sensor:=" + s["profile"]] if "profile" in s else []) + beams))
 except (OSError, ValueError, TypeError, AttributeError):
     pass   # policy_node names what is wrong with the file' "$policy")
   for b in $beams; do sim_params=(-p "$b" "${sim_params[@]}"); done

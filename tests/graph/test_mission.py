@@ -48,7 +48,7 @@ CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varyi
 
 
 @pytest.mark.parametrize("weights, sensor", [(FLS, "fls"), (FLS.with_name("policy_mb360.safetensors"), "multibeam360"),
-                                             (FLS.with_name("policy_mb360_cone5.safetensors"), "multibeam360"),
+                                             (FLS.with_name("policy_mb360_cone5.safetensors"), ""),
                                              (FLS.with_name("policy_scanning.safetensors"), "scanning")])
 def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path, weights, sensor):
     """A v2 policy (its profile's scan and/or memory + DVL velocity) behind the shield, sim_node sensor:=
@@ -56,8 +56,9 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
     Driver. The sonar's noise is off on both sides (the graph scans every odometry, offline every
     decision: the noise streams cannot be the same draws). The scanning policy observes its memory
     alone, so this also checks that policy_node places each beam of a sweep where the head fired it.
-    ``policy_mb360_cone5`` learnt on the 5 deg beams multibeam360 had until session 40: run_mission.sh
-    gives sim_node the beams its file records, so the graph scans as the evaluator does."""
+    ``policy_mb360_cone5`` learnt on the 5 deg beams multibeam360 had until session 40, and is run
+    without ``--sensor``: run_mission.sh gives sim_node the profile and beams its file records, so
+    the graph scans as the evaluator does."""
     from dataclasses import replace
     from cage_reactive_ddpg.policy import env_config_for
     from cage_sim.sonar import make_sonar
@@ -65,7 +66,7 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
                                  "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0", "--timeout", "120",
                                  "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
     assert result is not None, log
-    driver, _, meta = load_driver(str(weights), sensor=sensor)
+    driver, _, meta = load_driver(str(weights), sensor=sensor or None)
     config = replace(env_config_for(meta), sonar=make_sonar(env_config_for(meta).sonar, noise_std=0.0, dropout=0.0))
     ep = offline(driver, CURRENT, 1, config)
     assert ep.outcome == "goal" and ep.steps > 30          # a real mission, drifting 0.25 m/s
