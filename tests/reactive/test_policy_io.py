@@ -198,7 +198,7 @@ def test_shipped_profile_policy_is_for_its_profile_only(name, profile):
         load_policy(path, layout=EnvConfig().layout)          # a node building the study's observation
 
 
-def test_the_recorded_sonar_is_the_one_evaluate_and_the_node_rebuild(saved, tmp_path):
+def test_the_recorded_sonar_is_the_one_evaluate_and_the_node_rebuild(saved):
     """A file's ``sonar`` record (every setting, written by the trainer since session 40) decides the
     sonar ``env_config_for`` builds, so a policy is flown on the beams it learnt on even after its
     profile's defaults change; without a record, the profile's defaults; a bad record is refused."""
