@@ -103,10 +103,9 @@ def main() -> None:
     t_off = time.perf_counter() - t0
     graph = []
     t0 = time.perf_counter()
-    extra = ("--replan", args.replan)
     for i, s in enumerate(seeds):
         graph.append(graph_mission(args.scenario, s, args.policy, args.time_scale, args.sensor, args.shield,
-                                   args.noise, extra))
+                                   args.noise, ("--replan", args.replan)))
         if (i + 1) % 10 == 0 or i + 1 == len(seeds):
             same = sum(g["outcome"] == o.outcome for g, o in zip(graph, offline))
             print(f"  {i + 1}/{len(seeds)} missions, {same} same outcome, {time.perf_counter() - t0:.0f} s",
