@@ -138,13 +138,11 @@ policy_args+=("${policy_extra[@]}")
 # A policy file records the sonar it learnt on (its JSON's `sonar`): sim_node scans with its profile and
 # beams (count, width, range), so the graph flies it as `evaluate` does; --sensor and --sim-param still win.
 if [ -n "$policy" ] && [ "$policy" != baseline ]; then
-  beams=$("$py" -c 'import json, pathlib, sys
-p = pathlib.Path(sys.argv[1]); p = p.with_suffix(".json") if p.suffix in (".safetensors", ".json") else p.with_name(p.name + ".json")
+  beams=$("$py" -c 'import sys
+from cage_reactive_ddpg.policy import PolicyLoadError, sim_sonar_params
 try:
-    s = json.loads(p.read_text()).get("sonar") or {}
-    beams = [f"{k}:={t(s[k])!r}" for k, t in (("n_beams", int), ("max_range", float), ("beam_width_deg", float)) if k in s]
-    print(" ".join((["sensor:=" + s["profile"]] if "profile" in s else []) + beams))
-except (OSError, ValueError, TypeError, AttributeError):
+    print(" ".join(sim_sonar_params(sys.argv[1])))
+except (OSError, ValueError, KeyError, TypeError, AttributeError, PolicyLoadError):
     pass   # policy_node names what is wrong with the file' "$policy")
   for b in $beams; do sim_params=(-p "$b" "${sim_params[@]}"); done
 fi

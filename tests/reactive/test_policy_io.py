@@ -226,3 +226,14 @@ def test_the_multibeam360_policies_record_the_beams_they_learnt_on(name, width):
     assert math.degrees(make_sonar("multibeam360").beam_width) == pytest.approx(2.0)
     pol = load_policy(shipped_path().with_name(f"{name}.safetensors"), profile="multibeam360")
     assert math.degrees(env_config_for(pol.metadata).sonar.beam_width) == pytest.approx(width)
+
+
+def test_sim_sonar_params_give_the_graph_the_recorded_sonar(saved):
+    """What run_mission.sh passes to sim_node: the recorded profile and beams, and for a file without a
+    record its profile's defaults, as ``env_config_for`` builds them; a missing file raises."""
+    from cage_reactive_ddpg.policy import sim_sonar_params
+    cone5 = shipped_path().with_name("policy_mb360_cone5.safetensors")
+    assert sim_sonar_params(cone5) == ["sensor:=multibeam360", "n_beams:=72", "max_range:=20.0", "beam_width_deg:=5.0"]
+    assert sim_sonar_params(saved[1])[0] == "sensor:=study" and "beam_width_deg:=0.0" in sim_sonar_params(saved[1])
+    with pytest.raises(OSError):
+        sim_sonar_params(saved[1].with_name("missing.safetensors"))

@@ -162,6 +162,15 @@ def sonar_of(meta: dict):
         raise PolicyLoadError(f"policy metadata: sonar record {rec!r} is invalid: {err}") from None
 
 
+def sim_sonar_params(spec: str | Path) -> list[str]:
+    """The ``sim_node`` parameters (``name:=value``) that give the graph the sonar a policy file learnt
+    on (``sonar_of``: profile, beam count, range, beam width), so the graph scans as ``evaluate`` does.
+    ``scripts/run_mission.sh --policy FILE`` passes them. Unreadable files raise (OSError, ValueError)."""
+    s = sonar_of(json.loads(paths(spec)[1].read_text())).to_dict()
+    return [f"sensor:={s['profile']}", f"n_beams:={int(s['n_beams'])}", f"max_range:={float(s['max_range'])!r}",
+            f"beam_width_deg:={float(s['beam_width_deg'])!r}"]
+
+
 def env_config_for(meta: dict, motion: str | None = None):
     """The ``EnvConfig`` a policy was trained with (sensor, observation options, motion): the
     evaluator must build the same observations. Files from before profiles: the study's v1."""
