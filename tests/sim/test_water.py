@@ -203,3 +203,22 @@ def test_world_clearance_is_the_nearest_of_net_obstacles_and_fish(moving):
                        + [math.hypot(x - cx, y - cy) - r for cx, cy, r in w.fish_circles])
             assert w.clearance(x, y, t) == want                  # bit for bit: published runs stay reproducible
     assert min(w.clearance(o.x, o.y, 0.0) for o in obs if not o.moving) < 0          # inside an obstacle
+
+
+def test_a_seeded_mission_moves_its_schools_alike_in_the_env_and_as_sim_node_builds_it():
+    """sim_node (and evaluate, and the vector env) build ``Mission(draw_scenario(spec, seed), config)``;
+    the Gymnasium env must fly the very same schools, or graph and offline part ways (seen until
+    session 41: the env drew the schools' seed from its own stream)."""
+    from cage_sim.env import CageNavEnv
+    from cage_sim.scenarios import draw_scenario
+    spec = "cage?current=0.25&schools=3"
+    for seed in (3, 4):
+        env = CageNavEnv(spec)
+        env.reset(seed=seed)
+        node_side = Mission(draw_scenario(spec, seed), EnvConfig())
+        assert node_side.fish is not None and len(node_side.fish) == 3
+        for a in (0.3, -0.2, 0.0, 0.5, -0.6, 0.1):
+            env.step(np.array([a], dtype=np.float32))
+            node_side.step(a)
+            assert np.array_equal(env.unwrapped.mission.fish.pos, node_side.fish.pos)
+        assert env.unwrapped.mission.fish.pos.tolist() != node_side.fish.home.tolist()   # they did move

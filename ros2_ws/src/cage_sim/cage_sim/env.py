@@ -67,9 +67,9 @@ class CageNavEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         sc = (options or {}).get("scenario") or _prepare(self.sampler, self.np_random, self.waypoint_fn)
-        # Fish schools get their own seed, drawn only when there are any (other scenarios' streams stay as they were).
-        fish_seed = int(self.np_random.integers(2 ** 31)) if sc.world.schools else 0
-        self.mission = Mission(sc, self.config, fish_seed)
+        # Fish schools move as in every other path (evaluate, the vector env, sim_node): Mission's own
+        # seed, not a draw from this env's stream, so a seeded mission is the same mission everywhere.
+        self.mission = Mission(sc, self.config)
         return self._obs(), self.mission.info()
 
     def step(self, action):
