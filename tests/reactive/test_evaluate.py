@@ -7,6 +7,7 @@ from cage_sim.sonar import make_sonar
 
 from cage_reactive_ddpg.evaluate import evaluate, main, wilson
 from cage_reactive_ddpg.missions import episode_scenarios, parse_mix
+from cage_reactive_ddpg.policy import shipped_path
 
 
 class Straight:
@@ -163,3 +164,24 @@ def test_replan_under_way_judges_the_rest_against_the_new_route():
 def test_cli_replan_needs_a_planner(capsys):
     assert main(["--scenario", "study2d", "--episodes", "2", "--replan", "on", "--quiet"]) == 2
     assert "--replan on: needs a planner" in capsys.readouterr().err
+
+
+def test_cli_failures_lists_and_plots_the_missions_that_missed(tmp_path, capsys):
+    """``--failures``: the episodes that did not reach the goal, by index (the JSON, the table) and as a
+    PNG of their tracks; a run with none writes no PNG. A still-water policy in a 0.5 m/s current
+    with schools collides in about half its missions (graph-checked: bench_agreement_schools_s41)."""
+    calm = str(shipped_path().with_name("policy_calm.safetensors"))
+    out, png = tmp_path / "f.json", tmp_path / "f.png"
+    assert main(["--scenario", "cage?current=0.5&obstacles=small&schools=3", "--episodes", "8", "--seed", "3",
+                 "--policy", calm, "--shield", "off", "--json", str(out), "--failures", str(png), "--quiet"]) == 0
+    s = json.loads(out.read_text())
+    failed = s["failed"]
+    assert len(failed) == 8 - s["counts"]["goal"] > 0
+    assert sorted(f["outcome"] for f in failed) == sorted(o for o in s["counts"] for _ in range(s["counts"][o])
+                                                          if o != "goal")
+    assert png.stat().st_size > 1000
+    assert "not at the goal: " + f"{failed[0]['index']} ({failed[0]['outcome']})" in capsys.readouterr().out
+    none = tmp_path / "none.png"
+    assert main(["--scenario", "study2d", "--episodes", "3", "--seed", "1", "--policy", "baseline",
+                 "--failures", str(none), "--quiet"]) == 0
+    assert not none.exists() and "not at the goal" not in capsys.readouterr().out

@@ -52,6 +52,23 @@ def test_cli_tiny_matrix_writes_tables_and_figure(tmp_path, capsys):
                  "--quiet"]) == 2
 
 
+def test_cli_matrix_failures_name_and_plot_each_cells_misses(tmp_path):
+    """``--failures PREFIX``: each row lists its failed missions by index, and a cell and driver with
+    any get a PNG of their tracks; a still-water policy in the tiny matrix's 0.5 m/s cell misses."""
+    from cage_reactive_ddpg.policy import shipped_path
+    prefix, fails = tmp_path / "m", tmp_path / "fail"
+    calm = str(shipped_path().with_name("policy_calm.safetensors"))
+    assert main(["--matrix", "tiny", "--episodes", "6", "--seed", "5", "--drivers", "raw", "--policy", calm,
+                 "--out", str(prefix), "--failures", str(fails), "--quiet"]) == 0
+    rows = json.loads(prefix.with_suffix(".json").read_text())["rows"]
+    assert sum(len(r["failed"]) for r in rows) > 0
+    for r in rows:
+        assert len(r["failed"]) == r["episodes"] - r["goal"]
+        assert all(0 <= f["index"] < 6 for f in r["failed"])
+        png = tmp_path / f"fail_cell{r['cell']}_raw.png"
+        assert png.exists() == bool(r["failed"])
+
+
 def test_cli_unknown_matrix_or_driver_is_one_line(capsys):
     assert main(["--matrix", "nope", "--quiet"]) == 2
     assert "matrix: 'nope'" in capsys.readouterr().err

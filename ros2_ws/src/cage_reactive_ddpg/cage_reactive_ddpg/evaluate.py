@@ -17,6 +17,7 @@ import argparse
 import json
 import math
 import sys
+import textwrap
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -141,8 +142,28 @@ def summarize(results: list[EpisodeResult], grace: float = 0.0) -> dict:
         "mean_steps_goal": float(np.mean([r.steps for r in goals])) if goals else None,
         "path_ratio_goal": float(np.mean([r.travelled / r.route_length for r in goals])) if goals else None,
         "replans": int(sum(r.replans for r in results)),
+        "failed": failed_episodes(results),
         **({"grace": grace, "late": {o: sum(r.late == o for r in results) for o in OUTCOMES}} if grace else {}),
     }
+
+
+def failed_episodes(results: list[EpisodeResult]) -> list[dict]:
+    """Index, outcome and decisions of every episode that did not reach the goal: the missions to
+    look at again (``--failures`` plots them; an index re-creates its mission from the seed)."""
+    return [{"index": r.index, "outcome": r.outcome, "steps": r.steps, **({"late": r.late} if r.late else {})}
+            for r in results if r.outcome != "goal"]
+
+
+def plot_failures(path: str | Path, scenarios: list[Scenario], results: list[EpisodeResult], title: str,
+                  n: int = 12) -> int:
+    """The tracks of up to ``n`` episodes that did not reach the goal (``plot_tracks``), or no file
+    when every episode did; returns how many failed."""
+    failed = [r for r in results if r.outcome != "goal"]
+    if failed:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        head = f"{len(failed)} not at the goal" + (f" (the first {n})" if len(failed) > n else "")
+        plot_tracks(path, scenarios, failed, textwrap.fill(f"{title}: {head}", 40 * min(3, len(failed))), n=n)
+    return len(failed)
 
 
 def table(name: str, s: dict) -> str:
@@ -153,6 +174,10 @@ def table(name: str, s: dict) -> str:
         lines.append(f"  {o:<10}{s['counts'][o]:>7}{100 * s['rates'][o]:>8.1f}%   [{100 * lo:.1f}, {100 * hi:.1f}]")
     lines.append(f"  mean steps {s['mean_steps']:.1f}; goal episodes: mean steps "
                  f"{_fmt(s['mean_steps_goal'])}, path / route length {_fmt(s['path_ratio_goal'], '.3f')}")
+    if s.get("failed"):
+        shown = s["failed"][:20]
+        lines.append("  not at the goal: " + ", ".join(f"{f['index']} ({f['outcome']})" for f in shown)
+                     + (f", ... ({len(s['failed'])} in all)" if len(s["failed"]) > len(shown) else ""))
     if "late" in s:
         late = s["late"]
         lines.append(f"  flown on to {1 + s['grace']:g} x the budget, the {s['counts']['timeout']} timeouts end: "
@@ -260,6 +285,9 @@ def main(argv: list[str] | None = None) -> int:
                          "progress, 8 m off the route), as the node graph does; off: one plan per mission")
     ap.add_argument("--json", default=None, help="write the summary here")
     ap.add_argument("--plot", default=None, help="PNG of several episodes' tracks")
+    ap.add_argument("--failures", default=None,
+                    help="PNG of the tracks of (up to 12) episodes that did not reach the goal; with --matrix a "
+                         "prefix: one PNG per cell and driver with failures, PREFIX_cell<K>_<driver>.png")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--sensor", default=None,
                     help="sonar profile for the baseline alone (a policy uses the one it was trained with)")
@@ -286,7 +314,8 @@ def main(argv: list[str] | None = None) -> int:
         env = driver_env(meta, a)
         motion = env.motion
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
-                                     keep_tracks=9 if a.plot else 0, progress=not a.quiet, env=env,
+                                     keep_tracks=a.episodes if a.failures else 9 if a.plot else 0,
+                                     progress=not a.quiet, env=env,
                                      replan=a.replan == "on", grace=a.grace)
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
@@ -301,6 +330,8 @@ def main(argv: list[str] | None = None) -> int:
         Path(a.json).write_text(json.dumps(summary, indent=2))
     if a.plot:
         plot_tracks(a.plot, scs, res, f"{name} on {a.scenario}")
+    if a.failures:
+        plot_failures(a.failures, scs, res, f"{name} on {a.scenario}")
     return 0
 
 
@@ -350,7 +381,7 @@ def matrix_main(a: argparse.Namespace) -> int:
         skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
                                                           for d in drivers}
         rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, env, progress=not a.quiet,
-                             replan=a.replan == "on", skip=skip, grace=a.grace)
+                             replan=a.replan == "on", skip=skip, grace=a.grace, failures=a.failures)
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:

@@ -186,16 +186,19 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
                env=None, progress: bool = False, replan: bool = False,
-               skip: "set[tuple[int, str]] | frozenset" = frozenset(), grace: float = 0.0) -> list[dict]:
+               skip: "set[tuple[int, str]] | frozenset" = frozenset(), grace: float = 0.0,
+               failures: str | None = None) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver)
     not in ``skip`` (rows another run made, or cells another process runs).
 
     Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
     in effect), so drivers meet identical missions and cells never share one, whichever cells a
-    run does. ``grace``: see ``run_missions``; each row then counts its late goals (``late_goal``)."""
+    run does. ``grace``: see ``run_missions``; each row then counts its late goals (``late_goal``).
+    ``failures`` (a path prefix): each row lists its failed episodes (``failed``), and the tracks of a
+    cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``."""
     from cage_sim.mission import EnvConfig
 
-    from .evaluate import replan_planner, run_missions, summarize
+    from .evaluate import plot_failures, replan_planner, run_missions, summarize
     env = env or EnvConfig()
     from .missions import waypoint_fn
     routes = waypoint_fn(planner)
@@ -213,12 +216,16 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
         for dname, drv in todo.items():
-            s = summarize(run_missions(drv, scs, env, progress=progress, replan=replan_planner(routes, replan),
-                                       grace=grace), grace)
+            res = run_missions(drv, scs, env, keep_tracks=episodes if failures else 0, progress=progress,
+                               replan=replan_planner(routes, replan), grace=grace)
+            s = summarize(res, grace)
+            if failures:
+                plot_failures(f"{failures}_cell{k}_{dname}.png", scs, res, f"cell {k} {cell.name}, {dname}")
             rows.append({"cell": k, "sensor": env.sonar.profile, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
                          "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"],
-                         "replans": s["replans"], **({"late_goal": s["late"]["goal"]} if grace else {})})
+                         "replans": s["replans"], **({"late_goal": s["late"]["goal"]} if grace else {}),
+                         **({"failed": s["failed"]} if failures else {})})
             if progress:
                 print(f"cell {k} {cell.name} {dname}: " + " ".join(
                     f"{o} {100 * s['rates'][o]:.1f}%" for o in s["rates"]), flush=True)
