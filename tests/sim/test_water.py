@@ -222,3 +222,19 @@ def test_a_seeded_mission_moves_its_schools_alike_in_the_env_and_as_sim_node_bui
             node_side.step(a)
             assert np.array_equal(env.unwrapped.mission.fish.pos, node_side.fish.pos)
         assert env.unwrapped.mission.fish.pos.tolist() != node_side.fish.home.tolist()   # they did move
+
+
+def test_a_mission_carries_on_the_schools_of_an_earlier_one_and_refuses_other_ones():
+    school = FishSchool(6.0, 0.0, radius=1.0, flee_radius=3.0, flee_speed=0.8, return_speed=0.3, wander=1.0)
+    sc = Scenario("s", World(30.0, schools=(school,)), (0.0, 0.0, 0.0), (-10.0, 0.0))
+    first = Mission(sc, EnvConfig())
+    for _ in range(4):
+        first.step(0.0)                                      # toward the school: it flees
+    fled = first.fish.pos.copy()
+    assert fled[0, 0] > 6.5
+    second = Mission(sc, EnvConfig(), fish=first.fish)       # the next goal, in the same water
+    assert second.fish is first.fish and np.array_equal(second.fish.pos, fled)
+    assert np.array_equal(Mission(sc, EnvConfig()).fish.pos, [[6.0, 0.0]])   # a new episode: at home
+    other = Scenario("o", World(30.0, schools=(FishSchool(-6.0, 0.0),)), (0.0, 0.0, 0.0), (10.0, 0.0))
+    with pytest.raises(ValueError, match="fish"):
+        Mission(other, EnvConfig(), fish=first.fish)

@@ -101,6 +101,11 @@ def _segment_distance(ax: float, ay: float, bx: float, by: float, px: float, py:
     return math.hypot(ax + s * dx - px, ay + s * dy - py)
 
 
+def new_fish(world, seed: int = 0) -> FishState | None:
+    """The world's schools at home at the start of an episode (None when it has none)."""
+    return FishState(world.schools, world.net_radius, seed) if world.schools else None
+
+
 class Mission:
     """Judges one mission decision by decision.
 
@@ -109,14 +114,18 @@ class Mission:
     decision boundary). Both go through the same checks, so the graph and the env agree.
     """
 
-    def __init__(self, scenario: Scenario, config: EnvConfig, seed: int = 0):
+    def __init__(self, scenario: Scenario, config: EnvConfig, seed: int = 0, fish: FishState | None = None):
+        """``fish``: the world's schools as they are now, carried on from an earlier mission in the same
+        water (the simulator node's goal after goal), else new ones at home (wander phases from ``seed``)."""
         self.scenario, self.config = scenario, config
         self.world = scenario.world
         cmax = self.world.current_field.max_speed
         if cmax >= config.vehicle.speed:
             raise ValueError(f"current: up to {cmax:.2f} m/s is not slower than the vehicle "
                              f"({config.vehicle.speed:.2f} m/s through the water): it could not make headway")
-        self.fish = FishState(self.world.schools, self.world.net_radius, seed) if self.world.schools else None
+        if fish is not None and fish.schools != tuple(self.world.schools):
+            raise ValueError(f"fish: {len(fish)} schools given for a world with {len(self.world.schools)} other ones")
+        self.fish = fish if fish is not None else new_fish(self.world, seed)
         self.head = config.sonar.head()
         self.builder = ObservationBuilder(config.layout)
         self.last_scan: Scan | None = None

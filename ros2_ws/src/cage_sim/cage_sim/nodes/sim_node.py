@@ -33,7 +33,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..mission import EnvConfig, Mission
+from ..mission import EnvConfig, Mission, new_fish
 from .node_common import check, decision_period_ns, declare, declare_sensor, declare_vehicle
 from .node_runner import run_node
 from ..recovery import joining_under_way, remaining_route
@@ -64,6 +64,9 @@ class SimNode(Node):
         self.started_missions = 0
         self.scenario = draw_scenario(p["scenario"], p["seed"])
         self.world: World = self.scenario.world
+        # The schools belong to the water, not to a mission: each mission carries them on from where
+        # the last one left them (the first starts them at home, as an offline episode does).
+        self.fish = new_fish(self.world)
         self.head = self.sonar.head()              # stateful: a scanning head fires the beams due
         self.rng = np.random.default_rng(p["seed"])   # the sonar's noise, dropout and clutter
         self.config = EnvConfig(vehicle=vehicle, sonar=self.sonar)
@@ -131,7 +134,7 @@ class SimNode(Node):
             self.get_logger().info(f"mission {msg.id}: joined under way at t={t_ns / 1e9:.1f} s, "
                                    f"{len(pts)} waypoints ahead")
         sc = replace(self.scenario.with_waypoints(pts), start=pose, goal=(float(pts[-1][0]), float(pts[-1][1])))
-        self.mission = Mission(sc, self.config)
+        self.mission = Mission(sc, self.config, fish=self.fish)
         self.head = self.sonar.head()   # a new mission's sonar starts afresh, as offline
         self.mission_id = msg.id
         self.first_decision = t_ns // self.period_ns
@@ -165,8 +168,8 @@ class SimNode(Node):
             return   # a repeat (the vehicle waiting, or a flood): it already has its scan
         self.last_pose, self.scan_wall = (t_ns, pose), now
         t = t_ns / 1e9
-        if self.world.has_moving and now - self.marker_wall >= 1.0 / self.p["marker_rate"]:
-            self.marker_wall = now   # bounded rate, moving ones only: 10,000 static markers are sent once
+        if (self.world.has_moving or self.fish is not None) and now - self.marker_wall >= 1.0 / self.p["marker_rate"]:
+            self.marker_wall = now   # bounded rate, moving ones (and schools) only: 10,000 static markers are sent once
             self.marker_pub.publish(self.markers(t_ns, moving_only=True))
         # judge first, then scan: the scan shows the world (fish) after the decision, as offline
         if t_ns % self.period_ns == 0 and self.pending is not None:
@@ -182,7 +185,8 @@ class SimNode(Node):
         An electronic sonar scans every odometry; a mechanical head steps once per decision, as the
         offline ``Mission.sense`` does (the beams it fires in between come from the pose interpolated
         across the decision), and is republished unchanged between decisions."""
-        scene = self.mission.scene if self.mission is not None else self.world
+        scene = self.mission.scene if self.mission is not None else \
+            self.world if self.fish is None else self.world.with_fish(self.fish.circles())
         t = t_ns / 1e9
         at_boundary = t_ns % self.period_ns == 0
         if self.head.last is None:
@@ -230,6 +234,13 @@ class SimNode(Node):
             net.points.append(Point(x=self.world.net_radius * math.cos(a), y=self.world.net_radius * math.sin(a)))
         if not moving_only:
             out.append(net)
+            if self.world.net.deformed:        # the wall the current pushes in: what the sonar sees
+                wall = Marker(ns="net_wall", id=0, type=Marker.LINE_STRIP, action=Marker.ADD)
+                wall.scale.x = 0.1
+                wall.color.r, wall.color.g, wall.color.b, wall.color.a = 0.1, 0.6, 1.0, 0.8
+                poly = self.world.net.polygon
+                wall.points = [Point(x=float(x), y=float(y)) for x, y in np.vstack([poly, poly[:1]])]
+                out.append(wall)
         for group, known in ((self.world.known, True), (self.world.unknown, False)):
             for i, ob in enumerate(group):
                 if moving_only and not ob.moving:
@@ -241,6 +252,15 @@ class SimNode(Node):
                 side = ob.size if ob.shape == "square" else 2 * ob.size
                 m.scale.x, m.scale.y, m.scale.z = side, side, 1.0
                 m.color.r, m.color.g, m.color.b, m.color.a = (0.4, 0.4, 0.4, 1.0) if known else (0.6, 0.35, 0.2, 1.0)
+                out.append(m)
+        if self.fish is not None:              # where the schools are now (they flee the vehicle)
+            for k, ((x, y), r) in enumerate(zip(self.fish.pos, self.fish.radius)):
+                m = Marker(ns="schools", id=k, action=Marker.ADD, type=Marker.CYLINDER)
+                m.pose.position.x, m.pose.position.y = float(x), float(y)
+                m.pose.orientation.w = 1.0
+                m.scale.x = m.scale.y = 2 * float(r)
+                m.scale.z = 0.5
+                m.color.r, m.color.g, m.color.b, m.color.a = 0.3, 0.8, 0.9, 0.5
                 out.append(m)
         for m in out:
             m.header.stamp, m.header.frame_id = time_msg(t_ns), self.p["frame_id"]
