@@ -142,7 +142,6 @@ def summarize(results: list[EpisodeResult], grace: float = 0.0) -> dict:
         "mean_steps_goal": float(np.mean([r.steps for r in goals])) if goals else None,
         "path_ratio_goal": float(np.mean([r.travelled / r.route_length for r in goals])) if goals else None,
         "replans": int(sum(r.replans for r in results)),
-        "failed": failed_episodes(results),
         **({"grace": grace, "late": {o: sum(r.late == o for r in results) for o in OUTCOMES}} if grace else {}),
     }
 
@@ -320,7 +319,8 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
-    summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan)
+    summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan,
+                   failed=failed_episodes(res))
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
                        shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)

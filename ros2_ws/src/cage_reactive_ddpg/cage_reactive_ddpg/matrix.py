@@ -198,7 +198,7 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``."""
     from cage_sim.mission import EnvConfig
 
-    from .evaluate import plot_failures, replan_planner, run_missions, summarize
+    from .evaluate import failed_episodes, plot_failures, replan_planner, run_missions, summarize
     env = env or EnvConfig()
     from .missions import waypoint_fn
     routes = waypoint_fn(planner)
@@ -225,7 +225,7 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
                          "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"],
                          "replans": s["replans"], **({"late_goal": s["late"]["goal"]} if grace else {}),
-                         **({"failed": s["failed"]} if failures else {})})
+                         **({"failed": failed_episodes(res)} if failures else {})})
             if progress:
                 print(f"cell {k} {cell.name} {dname}: " + " ".join(
                     f"{o} {100 * s['rates'][o]:.1f}%" for o in s["rates"]), flush=True)
