@@ -185,3 +185,23 @@ def test_cli_failures_lists_and_plots_the_missions_that_missed(tmp_path, capsys)
     assert main(["--scenario", "study2d", "--episodes", "3", "--seed", "1", "--policy", "baseline",
                  "--failures", str(none), "--quiet"]) == 0
     assert not none.exists() and "not at the goal" not in capsys.readouterr().out
+
+
+def test_cli_only_flies_the_very_missions_of_the_full_run(tmp_path, capsys):
+    """``--only``: the chosen missions, each the same mission (and outcome, to the decision) as in
+    the full run, reported by their indices; an index outside the set is refused naming the flag."""
+    calm = str(shipped_path().with_name("policy_calm.safetensors"))
+    args = ["--scenario", "cage?current=0.5&obstacles=small&schools=3", "--episodes", "8", "--seed", "3",
+            "--policy", calm, "--shield", "off", "--quiet"]
+    full, part = tmp_path / "full.json", tmp_path / "part.json"
+    assert main(args + ["--json", str(full)]) == 0
+    failed = json.loads(full.read_text())["failed"]
+    chosen = sorted({failed[0]["index"], 0, 7})
+    png = tmp_path / "part.png"
+    assert main(args + ["--json", str(part), "--only", ",".join(map(str, reversed(chosen))), "--plot", str(png)]) == 0
+    s = json.loads(part.read_text())
+    assert s["only"] == chosen and s["episodes"] == len(chosen) and png.stat().st_size > 1000
+    assert [f for f in failed if f["index"] in chosen] == s["failed"]
+    capsys.readouterr()
+    assert main(args + ["--only", "8"]) == 2
+    assert "--only: '8' is outside the missions of --episodes 0-7" in capsys.readouterr().err

@@ -67,6 +67,17 @@ def test_cli_matrix_failures_name_and_plot_each_cells_misses(tmp_path):
         assert all(0 <= f["index"] < 6 for f in r["failed"])
         png = tmp_path / f"fail_cell{r['cell']}_raw.png"
         assert png.exists() == bool(r["failed"])
+    # the misses flown again by themselves: the same outcomes, to the decision
+    row = next(r for r in rows if r["failed"])
+    again = tmp_path / "again"
+    assert main(["--matrix", "tiny", "--episodes", "6", "--seed", "5", "--drivers", "raw", "--policy", calm,
+                 "--cells", str(row["cell"]), "--only", ",".join(str(f["index"]) for f in row["failed"]),
+                 "--out", str(again), "--quiet"]) == 0
+    (redo,) = json.loads(again.with_suffix(".json").read_text())["rows"]
+    assert redo["episodes"] == len(row["failed"]) and redo["goal"] == 0
+    assert all(redo[o] == sum(f["outcome"] == o for f in row["failed"]) for o in ("collision", "wander", "timeout"))
+    assert main(["--matrix", "tiny", "--episodes", "6", "--seed", "5", "--drivers", "raw", "--policy", calm,
+                 "--only", "1", "--reuse", str(prefix.with_suffix(".json")), "--quiet"]) == 2
 
 
 def test_cli_unknown_matrix_or_driver_is_one_line(capsys):

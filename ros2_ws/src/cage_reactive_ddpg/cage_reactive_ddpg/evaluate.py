@@ -20,6 +20,7 @@ import sys
 import textwrap
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 from cage_sim.controller import ArcController, Policy
@@ -60,7 +61,8 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
                  keep_tracks: int = 0, progress: bool = False, perception: bool = True,
-                 replan: WaypointFn | None = None, grace: float = 0.0) -> list[EpisodeResult]:
+                 replan: WaypointFn | None = None, grace: float = 0.0,
+                 indices: Sequence[int] | None = None) -> list[EpisodeResult]:
     """Run every scenario to its end; keep the tracks of the first ``keep_tracks`` episodes.
 
     ``perception``: the baseline and the shield see drift and moving returns (as in the graph);
@@ -71,9 +73,14 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     arrives); None = one plan per mission (the study's protocol).
     ``grace``: fly a mission that times out on, up to (1 + grace) x its budget, and record how it
     ended (``late``). Outcomes, steps and distances are still judged at the budget: each mission
-    draws its own noise, so its flight up to the budget is the same with or without a grace."""
+    draws its own noise, so its flight up to the budget is the same with or without a grace.
+    ``indices``: the episode index of each scenario, ascending (default: its position), what the
+    results carry: a run of chosen missions reports them by their indices in the full set."""
     if grace < 0 or not math.isfinite(grace):
         raise ValueError(f"grace: must be a finite number >= 0, got {grace}")
+    index = list(indices) if indices is not None else list(range(len(scenarios)))
+    if len(index) != len(scenarios):
+        raise ValueError(f"indices: {len(index)} given for {len(scenarios)} scenarios")
     results: list[EpisodeResult] = []
     bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
     for lo in range(0, len(scenarios), batch):
@@ -96,11 +103,12 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
                     if watches is not None:
                         replan_if_asked(ms[i], watches[i], replan)
                 else:
-                    results.append(_judged(ms[i], outcome, budgets[i], lo + i, lo + i < keep_tracks))
+                    results.append(_judged(ms[i], outcome, budgets[i], index[lo + i], lo + i < keep_tracks))
                     bar.update(1)
             live = still
     bar.close()
-    return sorted(results, key=lambda r: r.index)
+    order = {k: j for j, k in enumerate(index)}
+    return sorted(results, key=lambda r: order[r.index])
 
 
 def _judged(m: Mission, outcome: str, budget: int, index: int, keep_track: bool) -> EpisodeResult:
@@ -245,14 +253,22 @@ def driver_env(meta: dict | None, a: argparse.Namespace) -> EnvConfig:
 
 def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
              planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None,
-             replan: bool = False, grace: float = 0.0):
+             replan: bool = False, grace: float = 0.0, only: "list[int] | None" = None):
     """(summary dict, scenarios, results) for ``episodes`` seeded episodes; ``replan``: new plans
-    under way as in the graph (``run_missions``), with the same planner."""
+    under way as in the graph (``run_missions``), with the same planner. ``only``: just these
+    episodes of the set (each the very mission of the full run); the scenarios come back as
+    {index: scenario} then."""
     routes = waypoint_fn(planner)
-    scs = episode_scenarios(scenario, episodes, seed, routes)
     env = env or EnvConfig(motion=motion)
-    res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress,
-                       replan=replan_planner(routes, replan), grace=grace)
+    if only:
+        only = sorted(only)
+        scs = {i: episode_scenarios(scenario, 1, seed, routes, start=i)[0] for i in only}
+        res = run_missions(driver, list(scs.values()), env, keep_tracks=len(only), progress=progress,
+                           replan=replan_planner(routes, replan), grace=grace, indices=only)
+    else:
+        scs = episode_scenarios(scenario, episodes, seed, routes)
+        res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress,
+                           replan=replan_planner(routes, replan), grace=grace)
     summary = summarize(res, grace)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))
@@ -287,6 +303,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--failures", default=None,
                     help="PNG of the tracks of (up to 12) episodes that did not reach the goal; with --matrix a "
                          "prefix: one PNG per cell and driver with failures, PREFIX_cell<K>_<driver>.png")
+    ap.add_argument("--only", default=None,
+                    help="fly just these missions of the set (e.g. 66,616 or 10-19: indices below --episodes, as "
+                         "--failures lists them), each the very mission of the full run; with --matrix in every "
+                         "cell run (use --cells); --plot then shows their tracks")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--sensor", default=None,
                     help="sonar profile for the baseline alone (a policy uses the one it was trained with)")
@@ -312,15 +332,16 @@ def main(argv: list[str] | None = None) -> int:
         driver, name, meta = load_driver(a.policy, a.shield == "on", a.sensor)
         env = driver_env(meta, a)
         motion = env.motion
+        only = parse_only(a)
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
                                      keep_tracks=a.episodes if a.failures else 9 if a.plot else 0,
                                      progress=not a.quiet, env=env,
-                                     replan=a.replan == "on", grace=a.grace)
+                                     replan=a.replan == "on", grace=a.grace, only=only)
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan,
-                   failed=failed_episodes(res))
+                   failed=failed_episodes(res), **({"only": only} if only else {}))
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
                        shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)
@@ -333,6 +354,16 @@ def main(argv: list[str] | None = None) -> int:
     if a.failures:
         plot_failures(a.failures, scs, res, f"{name} on {a.scenario}")
     return 0
+
+
+def parse_only(a: argparse.Namespace) -> list[int] | None:
+    """``--only``'s mission indices (below ``--episodes``), or None for the whole set."""
+    from .matrix import parse_cells
+    if not a.only:
+        return None
+    if a.reuse:
+        raise ValueError("--only: a run of chosen missions is not merged with --reuse (its rows are not whole cells)")
+    return sorted(parse_cells(a.only, a.episodes, "--only", "the missions of --episodes"))
 
 
 def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observation: dict) -> list[dict]:
@@ -378,10 +409,11 @@ def matrix_main(a: argparse.Namespace) -> int:
         motion = env.motion
         old = _reused(a, name, motion, env.sonar.profile, env.layout.to_dict())
         wanted_cells = set(mx.parse_cells(a.cells, len(cells)))
+        only = parse_only(a)
         skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
                                                           for d in drivers}
         rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, env, progress=not a.quiet,
-                             replan=a.replan == "on", skip=skip, grace=a.grace, failures=a.failures)
+                             replan=a.replan == "on", skip=skip, grace=a.grace, failures=a.failures, only=only)
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
@@ -392,7 +424,8 @@ def matrix_main(a: argparse.Namespace) -> int:
     policy = str(a.policy or "shipped policy")
     if a.reuse:
         policy += f" (rows of {sorted({r['driver'] for r in old})} from {a.reuse})"
-    title = (f"matrix {name}: sensor {env.sonar.profile}, {a.episodes} missions per cell, seed {a.seed}, "
+    per_cell = f"missions {a.only} of {a.episodes}" if only else f"{a.episodes} missions"
+    title = (f"matrix {name}: sensor {env.sonar.profile}, {per_cell} per cell, seed {a.seed}, "
              f"planner {a.planner}, replan {a.replan}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
              + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else ""))
     md = mx.markdown(rows, title)
@@ -402,7 +435,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     prefix.with_suffix(".json").write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
          "sensor": env.sonar.profile, "replan": a.replan, "observation": env.layout.to_dict(),
-         "policy": policy, "grace": a.grace, "rows": rows}, indent=1))
+         "policy": policy, "grace": a.grace, **({"only": only} if only else {}), "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
         mx.plot(rows, a.plot, title)

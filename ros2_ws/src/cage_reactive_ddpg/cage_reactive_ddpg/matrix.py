@@ -139,8 +139,9 @@ MATRICES: dict[str, list[Condition]] = {
 
 # --------------------------------------------------------------------------- the evaluation matrix
 
-def parse_cells(spec: str | None, n: int) -> list[int]:
-    """``0-3,6`` -> [0, 1, 2, 3, 6] (cell indices of an ``n``-cell matrix); None or "" -> all."""
+def parse_cells(spec: str | None, n: int, flag: str = "--cells", what: str = "the matrix's cells") -> list[int]:
+    """``0-3,6`` -> [0, 1, 2, 3, 6] (cell indices of an ``n``-cell matrix, or with ``flag`` and
+    ``what`` other indices below ``n``: ``--only``'s missions); None or "" -> all."""
     if not spec:
         return list(range(n))
     out: list[int] = []
@@ -149,9 +150,9 @@ def parse_cells(spec: str | None, n: int) -> list[int]:
         try:
             a, b = int(lo), int(hi) if dash else int(lo)
         except ValueError:
-            raise ValueError(f"--cells: {part!r} is not an index or a range like 0-3") from None
+            raise ValueError(f"{flag}: {part!r} is not an index or a range like 0-3") from None
         if not 0 <= a <= b < n:
-            raise ValueError(f"--cells: {part!r} is outside the matrix's cells 0-{n - 1}")
+            raise ValueError(f"{flag}: {part!r} is outside {what} 0-{n - 1}")
         out += [k for k in range(a, b + 1) if k not in out]
     return out
 
@@ -187,7 +188,7 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
                env=None, progress: bool = False, replan: bool = False,
                skip: "set[tuple[int, str]] | frozenset" = frozenset(), grace: float = 0.0,
-               failures: str | None = None) -> list[dict]:
+               failures: str | None = None, only: "list[int] | None" = None) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver)
     not in ``skip`` (rows another run made, or cells another process runs).
 
@@ -195,7 +196,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     in effect), so drivers meet identical missions and cells never share one, whichever cells a
     run does. ``grace``: see ``run_missions``; each row then counts its late goals (``late_goal``).
     ``failures`` (a path prefix): each row lists its failed episodes (``failed``), and the tracks of a
-    cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``."""
+    cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``. ``only``: just these
+    missions of each cell (indices below ``episodes``), each the very mission of a full run."""
     from cage_sim.mission import EnvConfig
 
     from .evaluate import failed_episodes, plot_failures, replan_planner, run_missions, summarize
@@ -207,8 +209,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
         todo = {d: v for d, v in drivers.items() if (k, d) not in skip}
         if not todo:
             continue
-        scs = []
-        for i in range(episodes):
+        scs, indices = [], sorted(only) if only else list(range(episodes))
+        for i in indices:
             sc = cell.sample(np.random.default_rng([seed, k, i]))
             if routes is not None:
                 wps = routes(sc)
@@ -216,11 +218,12 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
         for dname, drv in todo.items():
-            res = run_missions(drv, scs, env, keep_tracks=episodes if failures else 0, progress=progress,
-                               replan=replan_planner(routes, replan), grace=grace)
+            res = run_missions(drv, scs, env, keep_tracks=len(scs) if failures else 0, progress=progress,
+                               replan=replan_planner(routes, replan), grace=grace, indices=indices)
             s = summarize(res, grace)
             if failures:
-                plot_failures(f"{failures}_cell{k}_{dname}.png", scs, res, f"cell {k} {cell.name}, {dname}")
+                plot_failures(f"{failures}_cell{k}_{dname}.png", dict(zip(indices, scs)), res,
+                              f"cell {k} {cell.name}, {dname}")
             rows.append({"cell": k, "sensor": env.sonar.profile, "current": cell.current, "obstacles": cell.obstacles, "goal_at": cell.goal,
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
                          "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"],
