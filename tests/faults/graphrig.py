@@ -6,7 +6,6 @@ import json
 import os
 import signal
 import subprocess
-import time
 from pathlib import Path
 
 from cage_planner_msgs.msg import HeadingSetpoint, MissionEvent

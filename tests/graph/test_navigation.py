@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 
-import pytest
 from action_msgs.msg import GoalStatus
 from cage_planner_msgs.msg import Mission, MissionEvent
 from geometry_msgs.msg import PoseStamped

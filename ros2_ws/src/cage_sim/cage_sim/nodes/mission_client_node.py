@@ -32,7 +32,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from ..navigation import CODE_NAMES
 from .node_common import declare
 from ..plotting import plot_episode
-from ..ros_convert import EVENT_OUTCOMES, path_points, stamp_ns, yaw_to_quaternion
+from ..ros_convert import EVENT_OUTCOMES, path_points, yaw_to_quaternion
 from ..scenarios import draw_scenario
 
 try:

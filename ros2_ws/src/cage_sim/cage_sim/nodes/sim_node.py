@@ -167,7 +167,6 @@ class SimNode(Node):
         if (t_ns, pose) == self.last_pose and now - self.scan_wall < 0.05:
             return   # a repeat (the vehicle waiting, or a flood): it already has its scan
         self.last_pose, self.scan_wall = (t_ns, pose), now
-        t = t_ns / 1e9
         if (self.world.has_moving or self.fish is not None) and now - self.marker_wall >= 1.0 / self.p["marker_rate"]:
             self.marker_wall = now   # bounded rate, moving ones (and schools) only: 10,000 static markers are sent once
             self.marker_pub.publish(self.markers(t_ns, moving_only=True))
