@@ -107,8 +107,7 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
                     bar.update(1)
             live = still
     bar.close()
-    order = {k: j for j, k in enumerate(index)}
-    return sorted(results, key=lambda r: order[r.index])
+    return sorted(results, key=lambda r: r.index)
 
 
 def _judged(m: Mission, outcome: str, budget: int, index: int, keep_track: bool) -> EpisodeResult:
@@ -260,15 +259,14 @@ def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: st
     {index: scenario} then."""
     routes = waypoint_fn(planner)
     env = env or EnvConfig(motion=motion)
+    only = sorted(only) if only else None
     if only:
-        only = sorted(only)
         scs = {i: episode_scenarios(scenario, 1, seed, routes, start=i)[0] for i in only}
-        res = run_missions(driver, list(scs.values()), env, keep_tracks=len(only), progress=progress,
-                           replan=replan_planner(routes, replan), grace=grace, indices=only)
+        flown = list(scs.values())
     else:
-        scs = episode_scenarios(scenario, episodes, seed, routes)
-        res = run_missions(driver, scs, env, keep_tracks=keep_tracks, progress=progress,
-                           replan=replan_planner(routes, replan), grace=grace)
+        scs = flown = episode_scenarios(scenario, episodes, seed, routes)
+    res = run_missions(driver, flown, env, keep_tracks=len(flown) if only else keep_tracks, progress=progress,
+                       replan=replan_planner(routes, replan), grace=grace, indices=only)
     summary = summarize(res, grace)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))

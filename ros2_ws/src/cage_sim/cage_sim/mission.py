@@ -106,6 +106,11 @@ def new_fish(world, seed: int = 0) -> FishState | None:
     return FishState(world.schools, world.net_radius, seed) if world.schools else None
 
 
+def with_schools(world, fish: FishState | None):
+    """``world`` as the sonar and the collision test see it with the schools where ``fish`` has them."""
+    return world if fish is None else world.with_fish(fish.circles())
+
+
 class Mission:
     """Judges one mission decision by decision.
 
@@ -211,7 +216,7 @@ class Mission:
     @property
     def scene(self):
         """The world as the sonar and the collision test see it now (fish schools where they are)."""
-        return self.world if self.fish is None else self.world.with_fish(self.fish.circles())
+        return with_schools(self.world, self.fish)
 
     def current_here(self) -> tuple[float, float]:
         """Water velocity (map frame, m/s) at the vehicle now."""

@@ -33,7 +33,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..mission import EnvConfig, Mission, new_fish
+from ..mission import EnvConfig, Mission, new_fish, with_schools
 from .node_common import check, decision_period_ns, declare, declare_sensor, declare_vehicle
 from .node_runner import run_node
 from ..recovery import joining_under_way, remaining_route
@@ -184,8 +184,7 @@ class SimNode(Node):
         An electronic sonar scans every odometry; a mechanical head steps once per decision, as the
         offline ``Mission.sense`` does (the beams it fires in between come from the pose interpolated
         across the decision), and is republished unchanged between decisions."""
-        scene = self.mission.scene if self.mission is not None else \
-            self.world if self.fish is None else self.world.with_fish(self.fish.circles())
+        scene = with_schools(self.world, self.fish)   # the missions fly these very schools (Mission.scene)
         t = t_ns / 1e9
         at_boundary = t_ns % self.period_ns == 0
         if self.head.last is None:
