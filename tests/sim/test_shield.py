@@ -285,9 +285,12 @@ def test_shield_takes_over_a_policy_that_orbits_the_goal():
 def test_shield_hands_a_policy_that_makes_no_progress_to_the_controller(goal):
     # A policy that circles for ever, safely (a return in view, so not open water): the shield alone
     # lets it circle; with the stall watch the controller flies once 15 decisions brought no progress.
+    # (The sure approach, which would take the goal 12-15 m off from the start, is off: the stall
+    # watch is what is tested.)
     sc = Scenario("circler", World(30.0, (), (Obstacle("circle", 3.0, -4.0, 0.5),)), (0.0, 0.0, 0.0), goal)
-    assert run_one(SafetyShield(Constant(1.0), recover=False), sc, perception=True).outcome == "timeout"
-    shield = SafetyShield(Constant(1.0))
+    assert run_one(SafetyShield(Constant(1.0), recover=False, sure_approach=False), sc,
+                   perception=True).outcome == "timeout"
+    shield = SafetyShield(Constant(1.0), sure_approach=False)
     ep = run_one(shield, sc, perception=True)
     assert ep.outcome == "goal" and 0 < shield.recoveries <= shield.interventions < shield.decisions
     assert shield.approaches == 0
@@ -356,17 +359,100 @@ def test_a_current_toward_a_wall_needs_the_longer_look_ahead():
     assert run_one(SafetyShield(Constant(0.2)), sc, perception=True).outcome != "collision"
 
 
-def test_a_continuations_tail_is_the_manoeuvre_it_was_rolled_out_from():
-    """``tail`` names the continuation a check found (hold ``turn`` for ``hold`` decisions, then straight):
-    rolling that manoeuvre out again gives the same points, for every continuation of the look-ahead."""
+@pytest.mark.parametrize("s_turns", [False, True])
+def test_a_continuations_tail_is_the_manoeuvre_it_was_rolled_out_from(s_turns):
+    """``tail`` names the continuation a check found (hold ``turn`` for ``hold`` decisions, then
+    straight, or then ``then`` for an S-turn): rolling that manoeuvre out again gives the same
+    points, for every continuation of the look-ahead; the S-turns come after the held turns, so
+    the held turns keep their indices."""
     shield = SafetyShield(Constant(0.0))
     for h in (5, 8):
-        conts = shield._continuations(h)
+        conts = shield._continuations(h, s_turns)
+        assert len(conts) == 1 + 4 * (h - 1) + (16 * (h - 2) if s_turns else 0)   # 0 or 4 levels, then 4 or 3
+        np.testing.assert_array_equal(conts[:1 + 4 * (h - 1)], shield._continuations(h))
         for idx in range(len(conts)):
             m = shield.tail(idx, h)
-            again = shield._points(lambda k, m=m: m.turn if k < m.hold else 0.0, h - 1)
+            assert (m.then != 0.0) == (idx > 4 * (h - 1))
+            again = shield._points(lambda k, m=m: m.turn if k < m.hold else m.then, h - 1)
             np.testing.assert_allclose(again, conts[idx], atol=1e-12)
     assert shield.tail(-1, 5) is None
+
+
+# Two rocks ahead with a 0.5 m/s current onto them (body frame = map frame at the start).
+ROCKS = ((5.8, -1.8, 1.85), (7.0, 3.5, 1.2))
+ROCK_CURRENT = (0.5, 0.1)
+
+
+def _rock_returns() -> np.ndarray:
+    ring = np.linspace(0.0, 2 * math.pi, 36, endpoint=False)
+    return np.concatenate([np.stack([x + r * np.cos(ring), y + r * np.sin(ring)], axis=1) for x, y, r in ROCKS])
+
+
+def test_boxed_in_for_held_turns_an_s_turn_keeps_clear_and_is_flown_next():
+    """No held turn (hold b for k decisions, then straight) keeps 1 m from the two rocks the current
+    pushes the vehicle onto; with ``s_turns`` (the default) the shield finds a first action followed by a turn
+    one way and then the other (as the only survivors of cell 19 mission 911 of the sea matrix
+    were), commits to it, and that manoeuvre, flown with the vehicle model in the current, does
+    keep 1 m from the rocks themselves (not just from their sampled returns)."""
+    from cage_sim.shield import Commitment
+    from cage_sim.vehicle import VehicleParams, decision_step
+    returns, drift = _rock_returns(), np.array(ROCK_CURRENT)
+    p = Perception(returns, drift=drift)
+    alts = np.linspace(-1.0, 1.0, 21)
+    held = SafetyShield(Constant(0.0), s_turns=False)
+    assert not held.safe(alts, returns, p.relative(), None, drift, 10).any()
+    assert held.check(0.0, 30.0, 0.0, p, commit=(c0 := Commitment())) is not None and c0.plan is None
+    shield, commit = SafetyShield(Constant(0.0)), Commitment()
+    a = shield.check(0.0, 30.0, 0.0, p, commit=commit)
+    plan = commit.plan
+    assert plan is not None and plan.hold >= 1 and plan.then not in (0.0, plan.turn)
+    vehicle, (x, y, yaw), closest = VehicleParams(), (0.0, 0.0, 0.0), math.inf
+    for b in [a] + [plan.action_at(k) for k in range(9)]:
+        x, y, yaw = decision_step(x, y, yaw, b, vehicle, ROCK_CURRENT)
+        closest = min(closest, min(math.hypot(x - cx, y - cy) - r for cx, cy, r in ROCKS))
+    assert closest >= 1.0
+
+
+def test_the_controller_says_whether_its_manoeuvre_passes_through_the_goal():
+    ctrl = ArcController()
+    a, through = ctrl.choose(5.0, 0.0, Perception(np.zeros((0, 2)), final=True))
+    assert abs(a) < 0.05 and through
+    assert ctrl.decide(5.0, 0.0, Perception(np.zeros((0, 2)), final=True)) == a
+    assert not ctrl.choose(5.0, 0.0, Perception(np.zeros((0, 2)), final=False))[1]     # a waypoint: no end
+    assert not ctrl.choose(40.0, 0.0, Perception(np.zeros((0, 2)), final=True))[1]     # beyond the rollouts
+
+
+def test_sure_approach_flies_the_controllers_way_through_a_goal_the_policy_turns_away_from():
+    """A goal 4 m ahead, a 0.3 m/s current from behind, a rock far behind (so not open water): a
+    policy turning hard right is safe, so a shield without ``sure_approach`` lets it fly away from
+    the goal for good. With it (the default), once no continuation of the policy's action passes
+    through the goal, the controller's manoeuvre that does flies instead, and flown decision by
+    decision with the vehicle model it reaches the goal."""
+    from cage_sim.mission import _segment_distance
+    from cage_sim.perception import to_body
+    from cage_sim.vehicle import VehicleParams, decision_step
+    goal, current, rock = np.array([4.0, 1.0]), (0.3, 0.0), np.array([[-9.0, -3.0]])
+    vehicle = VehicleParams()
+
+    def seen(pose):
+        x, y, yaw = pose
+        g = to_body(goal - (x, y), yaw)
+        return float(np.hypot(*g)), math.atan2(g[1], g[0]), \
+            Perception(to_body(rock - (x, y), yaw), drift=to_body(np.array(current), yaw), final=True)
+
+    def fly(shield: SafetyShield) -> bool:
+        pose = (0.0, 0.0, 0.0)
+        for _ in range(15):
+            nxt = decision_step(*pose, shield.check(-1.0, *seen(pose)), vehicle, current)
+            if _segment_distance(pose[0], pose[1], nxt[0], nxt[1], *goal) < 1.0:
+                return True
+            pose = nxt
+        return False
+
+    plain, sure = SafetyShield(Constant(-1.0), sure_approach=False), SafetyShield(Constant(-1.0))
+    assert not fly(plain) and plain.interventions == 0
+    assert fly(sure)
+    assert 1 <= sure.approaches == sure.interventions < sure.decisions    # the policy flew some of it
 
 
 def test_an_unsafe_action_is_replaced_on_the_side_of_the_manoeuvre_in_hand():

@@ -129,6 +129,11 @@ class ArcController:
 
     def decide(self, dist: float, err: float, p: Perception) -> float:
         """The action for a waypoint at (dist, err) (body frame) given what is perceived."""
+        return self.choose(dist, err, p)[0]
+
+    def choose(self, dist: float, err: float, p: Perception) -> tuple[float, bool]:
+        """(``decide``'s action, whether the manoeuvre it starts passes through the goal: the
+        waypoint is the goal and the rollout comes within ``goal_pass`` of it, clear all the way)."""
         goal = np.array([dist * math.cos(err), dist * math.sin(err)])
         drift = np.asarray(p.drift, dtype=np.float64)
         # Aimed candidates, each starting by turning onto the waypoint (crabbing against the drift):
@@ -166,11 +171,13 @@ class ArcController:
         score = progress + self.comfort_weight * np.maximum(0.0, self.comfort - clearance)
         ok = clearance >= self.min_clearance
         if not ok.any():
-            return float(firsts[int(np.argmax(clearance))])   # boxed in: the manoeuvre that keeps farthest away
+            return float(firsts[int(np.argmax(clearance))]), False   # boxed in: the manoeuvre that keeps farthest away
+        through = p.final & (to_goal < self.goal_pass).any(axis=1)
         best = int(np.argmin(np.where(ok, score, np.inf)))
-        if (ok[-n_aims:] & (score[-n_aims:] <= score[best] + 0.05)).any():
-            return a_aim          # flying at the waypoint is as good: do exactly that (no dithering)
-        return float(firsts[best])
+        aimed = ok[-n_aims:] & (score[-n_aims:] <= score[best] + 0.05)
+        if aimed.any():           # flying at the waypoint is as good: do exactly that (no dithering)
+            return a_aim, bool(through[-n_aims:][aimed].any())
+        return float(firsts[best]), bool(through[best])
 
     def _clearance_below(self, cap: float, rel: np.ndarray, pts: np.ndarray) -> np.ndarray:
         """``nearest_distance`` at the distinct rollout points, exact where it is below ``cap`` and

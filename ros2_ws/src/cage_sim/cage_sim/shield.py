@@ -39,6 +39,22 @@ With a ``Perception`` (``decide``: drift from the DVL, returns moving with their
 ``cage_sim.perception``) the manoeuvres are checked where they will really be flown: a 0.25 m/s
 current moves the vehicle 1.25 m over 5 decisions, more than the margin a still-water check
 leaves. ``act`` (observation only) checks in still water against static returns.
+
+Two additions of session 42 (``s_turns``, ``sure_approach``; on by default, either can be turned
+off; measured on the 0.5 m/s sea cells in ``docs/notes/sessions.md``: most missions they change
+turn from a miss into a goal, few the other way):
+- ``s_turns``: when no held turn keeps the margin (boxed in), two-phase continuations are tried
+  too (hold b1 for k decisions, then another turn b2: ``s_turn_manoeuvres``), and the boxed-in
+  choice weighs them. Why: in a current onto two obstacles the only way out can be a gentle turn
+  one way and then a full turn the other (the only survivors of cell 19 mission 911 of the sea
+  matrix, which held turns left to collide).
+- ``sure_approach``: with the goal within the look-ahead, a policy action after which no
+  continuation passes through the goal (``_reaches_goal``) is replaced by a manoeuvre of the
+  controller's that does (``ArcController.choose``), then checked like any other action. Why: the
+  learned policies sometimes turn hard at a goal 1-2 m off and miss it in a current, which then
+  carries the vehicle away (cell 23 mission 440: 1.2 m off, then a timeout). A first version that
+  took the controller's way through the goal whenever it had one flew a fifth of all decisions of
+  `cage` (the last metres of most missions) for the same outcomes.
 """
 from __future__ import annotations
 
@@ -57,13 +73,19 @@ TURN_LEVELS = (-1.0, -0.5, 0.5, 1.0)   # the turns a continuation holds (after t
 
 @dataclass(frozen=True)
 class Manoeuvre:
-    """A continuation the shield checked: hold ``turn`` for ``hold`` more decisions, then straight."""
+    """A continuation the shield checked: hold ``turn`` for ``hold`` more decisions, then ``then``
+    (straight, or in an S-turn the other way or harder)."""
 
     turn: float
     hold: int
+    then: float = 0.0
 
     def next_action(self) -> float:
-        return self.turn if self.hold > 0 else 0.0
+        return self.turn if self.hold > 0 else self.then
+
+    def action_at(self, k: int) -> float:
+        """The action ``k`` decisions into the continuation."""
+        return self.turn if k < self.hold else self.then
 
 
 @dataclass
@@ -97,9 +119,11 @@ class SafetyShield:
     approach: bool = True            # a policy action that circles the goal: the controller's approach instead
     recover: bool = True             # a policy that makes no progress (``StallWatch``): the controller flies
     keep_manoeuvre: bool = True      # right after an override: its manoeuvre's next action first (``Commitment``)
+    s_turns: bool = True             # boxed in for held turns: try two-phase continuations (S-turns) too
+    sure_approach: bool = True       # a policy action that no longer leads through the goal: the controller's way
     decisions: int = 0
     interventions: int = 0
-    approaches: int = 0              # decisions the goal-orbit guard took over (counted in interventions too)
+    approaches: int = 0              # decisions the goal-orbit guard or the sure approach took (in interventions too)
     recoveries: int = 0              # decisions flown by the controller for a stalled policy (likewise)
 
     def __post_init__(self) -> None:
@@ -107,7 +131,7 @@ class SafetyShield:
             raise ValueError(f"shield horizon: need 1 <= horizon ({self.horizon}) <= horizon_max "
                              f"({self.horizon_max}) and drift_horizon >= 0 ({self.drift_horizon})")
         self._alternatives = np.linspace(-1.0, 1.0, self.n_actions)
-        self._conts: dict[int, np.ndarray] = {}
+        self._conts: dict[tuple[int, bool], np.ndarray] = {}
 
     def horizon_for(self, drift: np.ndarray | None) -> int:
         """Decisions to check given the drift: a current pushes the vehicle on while it turns away
@@ -115,17 +139,19 @@ class SafetyShield:
         already be one no manoeuvre escapes; the look-ahead grows with the drift to cover the escape."""
         return int(min(self.horizon_max, self.horizon + math.ceil(self.drift_horizon * drift_speed(drift) - 1e-9)))
 
-    def _continuations(self, horizon: int) -> np.ndarray:
+    def _continuations(self, horizon: int, s_turns: bool = False) -> np.ndarray:
         """[C, P, 2] body-frame continuations of ``horizon - 1`` decisions from the origin: straight,
-        or a turn of -1, -0.5, 0.5 or 1 held for k decisions and then straight (cached per horizon)."""
-        if horizon not in self._conts:
+        or a turn of -1, -0.5, 0.5 or 1 held for k decisions and then straight (cached per horizon).
+        ``s_turns``: those, then two-phase ones (``s_turn_manoeuvres``), in that order."""
+        key = (horizon, s_turns)
+        if key not in self._conts:
             n = horizon - 1
-            conts = [self._points(lambda h: 0.0, n)]
-            for b in TURN_LEVELS:
-                for k in range(1, n + 1):
-                    conts.append(self._points(lambda h, b=b, k=k: b if h < k else 0.0, n))
-            self._conts[horizon] = np.array(conts).reshape(len(conts), 2 * n, 2)
-        return self._conts[horizon]
+            ms = [self.tail(i, horizon) for i in range(1 + len(TURN_LEVELS) * n)]
+            if s_turns:
+                ms += s_turn_manoeuvres(n)
+            conts = [self._points(m.action_at, n) for m in ms]
+            self._conts[key] = np.array(conts).reshape(len(conts), 2 * n, 2)
+        return self._conts[key]
 
     def _points(self, action_at, n: int) -> np.ndarray:
         """Mid and end points of ``n`` decisions flown from the origin with action_at(h)."""
@@ -159,11 +185,11 @@ class SafetyShield:
 
     def horizon_margins(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None,
                         goal: np.ndarray | None = None, drift: np.ndarray | None = None,
-                        horizon: int | None = None) -> np.ndarray:
+                        horizon: int | None = None, s_turns: bool = False) -> np.ndarray:
         """(F, h): ``margins`` of each first action for every look-ahead 1..h, from one rollout.
         Why one is enough: the continuations of a shorter look-ahead are those of the longer one
         cut short (hold b for j decisions, then straight, for min(j, k-1) of k-1 decisions)."""
-        look = self._look(returns, relative, goal, drift, horizon)
+        look = self._look(returns, relative, goal, drift, horizon, s_turns)
         return np.array([self._profile(float(a), look) for a in firsts], dtype=np.float64).reshape(len(firsts), -1)
 
     def first_safe(self, candidates, returns: np.ndarray, relative: np.ndarray | None = None,
@@ -182,16 +208,19 @@ class SafetyShield:
         return None
 
     def tail(self, index: int, horizon: int) -> "Manoeuvre | None":
-        """The rest of continuation ``index`` (of ``horizon``) after the decision it follows has been
-        flown: what the vehicle can fly next and still keep the margin it was checked for."""
+        """The rest of continuation ``index`` (of ``horizon``, with the S-turns after the others)
+        after the decision it follows has been flown: what the vehicle can fly next and still keep
+        the margin it was checked for."""
         if index < 0:
             return None
         if index == 0:
             return Manoeuvre(0.0, 0)
         n = horizon - 1
+        if index > len(TURN_LEVELS) * n:
+            return s_turn_manoeuvres(n)[index - 1 - len(TURN_LEVELS) * n]
         return Manoeuvre(TURN_LEVELS[(index - 1) // n], (index - 1) % n + 1)
 
-    def _look(self, returns, relative, goal, drift, horizon) -> tuple:
+    def _look(self, returns, relative, goal, drift, horizon, s_turns: bool = False) -> tuple:
         """What every first action's check shares: continuations, their times, the returns' motion."""
         h = self.horizon_for(drift) if horizon is None else int(horizon)
         period = self.fallback.vehicle.decision_period
@@ -199,7 +228,7 @@ class SafetyShield:
         returns = np.asarray(returns, dtype=np.float64).reshape(-1, 2)
         rel = np.zeros_like(returns) if relative is None else np.asarray(relative, dtype=np.float64).reshape(-1, 2)
         dr = np.zeros(2) if drift is None else np.asarray(drift, dtype=np.float64)
-        return self._continuations(h), np.array([0.5, 1.0]) * period, t_cont, returns, rel, goal, dr
+        return self._continuations(h, s_turns), np.array([0.5, 1.0]) * period, t_cont, returns, rel, goal, dr
 
     def _first(self, a: float, look: tuple) -> tuple[float, bool, tuple[float, float, float]]:
         """The first decision flown with action ``a``: (its clearance, whether it passes through
@@ -251,6 +280,24 @@ class SafetyShield:
             if best >= floor > -math.inf:
                 break
         return min(m, best), idx
+
+    def _reaches_goal(self, a: float, look: tuple) -> bool:
+        """Whether some continuation after action ``a`` passes through the goal (within the
+        controller's ``goal_pass``, drifting) keeping ``min_clearance`` until it does: the policy's
+        action still leads to the end of the mission. False without a goal in ``look``."""
+        conts, _, t_cont, _, _, goal, dr = look
+        if goal is None:
+            return False
+        m, through, (x1, y1, yaw1) = self._first(a, look)
+        if m < self.min_clearance or through:
+            return m >= self.min_clearance
+        c, s = math.cos(yaw1), math.sin(yaw1)
+        ground = conts @ np.array([[c, s], [-s, c]]) + (x1, y1) + t_cont[None, :, None] * dr     # [C, P, 2]
+        hits = (np.linalg.norm(ground - goal, axis=-1) < self.fallback.goal_pass).any(axis=1)
+        if not hits.any():
+            return False
+        clear = self._along(conts[hits], (x1, y1, yaw1), look).min(axis=1, initial=np.inf)
+        return bool((clear >= self.min_clearance).any())
 
     def _profile(self, a: float, look: tuple) -> np.ndarray:
         """[h] the margin of ``a`` for look-aheads 1..h: the running minimum along each continuation,
@@ -311,10 +358,18 @@ class SafetyShield:
         near = np.linalg.norm(p.returns, axis=1) < reach if len(p.returns) else np.zeros(0, dtype=bool)
         returns, rel = p.returns[near], p.relative()[near]
         goal = np.array([dist * math.cos(err), dist * math.sin(err)]) if p.final else None
+        look = self._look(returns, rel, goal, p.drift, h)
+        within = (v.step_length + drift_speed(p.drift) * v.decision_period) * h    # the look-ahead's reach
+        if not guarded and self.sure_approach and goal is not None and dist < within \
+                and not self._reaches_goal(a, look):
+            b, through = self.fallback.choose(dist, err, p)
+            if through:                                     # the controller's manoeuvre ends the mission
+                a, guarded = b, True
+                self.approaches += 1
+                self.interventions += 1
         if len(returns) == 0:
             self._remember(commit, -1, h)
             return a
-        look = self._look(returns, rel, goal, p.drift, h)
         if self._margin(a, look, self.min_clearance) >= self.min_clearance:
             self._remember(commit, -1, h)     # the policy's own action: no override to carry on
             return a
@@ -323,6 +378,8 @@ class SafetyShield:
         plan = commit.plan if commit is not None and self.keep_manoeuvre else None
         candidates = nearest_first if plan is None else np.concatenate([[plan.next_action()], nearest_first])
         found = self._first_safe_at(candidates, look)
+        if found is None and self.s_turns:     # boxed in for held turns: an S-turn may still keep clear
+            found = self._first_safe_at(nearest_first, self._look(returns, rel, goal, p.drift, h, s_turns=True))
         if found is not None:
             self._remember(commit, found[1], h)
             return found[0]
@@ -331,7 +388,7 @@ class SafetyShield:
         # down to the still-water horizon; among the actions that survive it, the one whose best
         # manoeuvre keeps farthest from the returns over the whole look-ahead (ties: the nearest the
         # policy's): the nearest barely-safe action tends to box the vehicle in a decision later.
-        margin = self.horizon_margins(nearest_first, returns, rel, goal, p.drift, h)     # [F, h]
+        margin = self.horizon_margins(nearest_first, returns, rel, goal, p.drift, h, self.s_turns)     # [F, h]
         for k in range(h - 1, self.horizon - 1, -1):
             ok = margin[:, k - 1] >= self.min_clearance
             if ok.any():
@@ -346,6 +403,15 @@ class SafetyShield:
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)
+
+
+def s_turn_manoeuvres(n: int) -> list[Manoeuvre]:
+    """Two-phase continuations of ``n`` decisions: hold ``b1`` (straight or a turn level) for k
+    decisions (1 <= k < n), then another turn level ``b2`` to the end. Why: in a current onto an
+    obstacle the only way out can be a gentle turn one way, then a full turn the other (cell 19
+    mission 911 of the sea matrix: -0.5 for 3 decisions, then +1), which no held turn flies."""
+    return [Manoeuvre(b1, k, b2) for b1 in (0.0, *TURN_LEVELS) for k in range(1, n)
+            for b2 in TURN_LEVELS if b2 != b1]
 
 
 def drift_speed(drift: np.ndarray | None) -> float:

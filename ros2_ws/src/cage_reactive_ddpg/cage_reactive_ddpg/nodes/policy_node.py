@@ -249,7 +249,7 @@ class PolicyNode(Node):
             if isinstance(self.policy, SafetyShield):
                 self.get_logger().info(f"mission {msg.mission_id} over: the shield overrode {self.policy.interventions} "
                                        f"of {self.policy.decisions} decisions so far ({self.policy.approaches} "
-                                       f"goal-orbit take-overs, {self.policy.recoveries} decisions flown by the "
+                                       f"goal approaches (orbit guard or sure approach), {self.policy.recoveries} decisions flown by the "
                                        "controller for a policy making no progress)")
 
     def on_scan(self, msg: LaserScan) -> None:
