@@ -328,6 +328,9 @@ def test_look_ahead_grows_with_the_drift_and_bad_horizons_are_refused():
     for bad in ({"horizon": 0}, {"horizon": 11}, {"drift_horizon": -1.0}):
         with pytest.raises(ValueError, match="shield horizon"):
             SafetyShield(Constant(0.0), **bad)
+    for bad in (0.0, -3.0, float("nan")):
+        with pytest.raises(ValueError, match="sure_within"):
+            SafetyShield(Constant(0.0), sure_within=bad)
 
 
 def test_margins_safe_and_first_safe_agree():

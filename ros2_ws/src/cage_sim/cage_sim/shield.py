@@ -133,6 +133,8 @@ class SafetyShield:
         if not (1 <= self.horizon <= self.horizon_max) or self.drift_horizon < 0:
             raise ValueError(f"shield horizon: need 1 <= horizon ({self.horizon}) <= horizon_max "
                              f"({self.horizon_max}) and drift_horizon >= 0 ({self.drift_horizon})")
+        if not self.sure_within > 0:
+            raise ValueError(f"shield sure_within: must be > 0 m, got {self.sure_within!r}")
         self._alternatives = np.linspace(-1.0, 1.0, self.n_actions)
         self._conts: dict[tuple[int, bool], np.ndarray] = {}
 
