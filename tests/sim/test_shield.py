@@ -393,10 +393,11 @@ def _rock_returns() -> np.ndarray:
 
 def test_boxed_in_for_held_turns_an_s_turn_keeps_clear_and_is_flown_next():
     """No held turn (hold b for k decisions, then straight) keeps 1 m from the two rocks the current
-    pushes the vehicle onto; with ``s_turns`` (the default) the shield finds a first action followed by a turn
-    one way and then the other (as the only survivors of cell 19 mission 911 of the sea matrix
-    were), commits to it, and that manoeuvre, flown with the vehicle model in the current, does
-    keep 1 m from the rocks themselves (not just from their sampled returns)."""
+    pushes the vehicle onto, so the shield without S-turns is boxed in (no manoeuvre to commit to).
+    With ``s_turns`` (the default) it finds a first action followed by a turn one way and then
+    another (as the only survivors of cell 19 mission 911 of the sea matrix were), commits to it,
+    and that manoeuvre, flown with the vehicle model in the current, does keep 1 m from the rocks
+    themselves (not just from their sampled returns)."""
     from cage_sim.shield import Commitment
     from cage_sim.vehicle import VehicleParams, decision_step
     returns, drift = _rock_returns(), np.array(ROCK_CURRENT)
@@ -404,7 +405,9 @@ def test_boxed_in_for_held_turns_an_s_turn_keeps_clear_and_is_flown_next():
     alts = np.linspace(-1.0, 1.0, 21)
     held = SafetyShield(Constant(0.0), s_turns=False)
     assert not held.safe(alts, returns, p.relative(), None, drift, 10).any()
-    assert held.check(0.0, 30.0, 0.0, p, commit=(c0 := Commitment())) is not None and c0.plan is None
+    boxed = Commitment()
+    held.check(0.0, 30.0, 0.0, p, commit=boxed)
+    assert boxed.plan is None
     shield, commit = SafetyShield(Constant(0.0)), Commitment()
     a = shield.check(0.0, 30.0, 0.0, p, commit=commit)
     plan = commit.plan
