@@ -526,17 +526,23 @@ def test_point_segment_distance_is_the_definition():
 
 
 def test_shield_given_the_controllers_action_decides_as_computing_it():
-    # A residual policy's base is the fallback's own action on this perception; handing it to the
-    # shield (stalled: the controller flies; open water: likewise) must change nothing.
+    # A residual policy's base is the fallback's own choice on this perception; handing it to the
+    # shield (stalled: the controller flies; open water: likewise; near the goal: the sure
+    # approach reads whether it passes through) must change nothing.
     from cage_sim.driver import same_decisions
     shield = SafetyShield(Constant(0.6))
     p = Perception(np.array([(4.0, 1.0), (5.0, -2.0), (3.0, 3.0)]), drift=np.array([-0.2, 0.3]))
     for percept in (p, Perception(np.zeros((0, 2)), drift=np.array([0.1, 0.0]))):
-        own = shield.fallback.decide(12.0, 0.4, percept)
+        own = shield.fallback.choose(12.0, 0.4, percept)
         assert shield.check(0.6, 12.0, 0.4, percept, stalled=True) == \
-            shield.check(0.6, 12.0, 0.4, percept, stalled=True, controller_action=own)
-        assert shield.check(0.6, 12.0, 0.4, percept, stalled=True, controller_action=0.123) != \
+            shield.check(0.6, 12.0, 0.4, percept, stalled=True, controller_choice=own)
+        assert shield.check(0.6, 12.0, 0.4, percept, stalled=True, controller_choice=(0.123, False)) != \
             shield.check(0.6, 12.0, 0.4, percept, stalled=True)       # it is really used
+    near = Perception(np.array([(-6.0, 4.0)]), drift=np.array([0.0, -0.3]), final=True)
+    own = shield.fallback.choose(5.8, 0.54, near)
+    assert own[1]                                                     # the sure approach takes it
+    assert shield.check(-1.0, 5.8, 0.54, near) == shield.check(-1.0, 5.8, 0.54, near, controller_choice=own) == own[0]
+    assert shield.check(-1.0, 5.8, 0.54, near, controller_choice=(own[0], False)) == -1.0    # through is read
     assert same_decisions(ArcController(), ArcController()) and not same_decisions(ArcController(), ArcController(horizon=8))
 
 

@@ -143,8 +143,8 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
         return np.clip([ctrl.decide(*s) for s in seen], -1.0, 1.0), np.zeros(n, dtype=bool)
     based = None
     if base is not None:
-        based = [base.decide(*s) for s in seen]
-        raw = learned.act_residual(obs, np.array(based))
+        based = [base.choose(*s) for s in seen]      # (action, through the goal): the shield reads both
+        raw = learned.act_residual(obs, np.array([b for b, _ in based]))
     else:
         raw = learned.act(obs)
     raw = np.asarray(raw, dtype=np.float64).reshape(n, -1)[:, 0]

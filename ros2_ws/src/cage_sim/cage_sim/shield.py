@@ -306,10 +306,10 @@ class SafetyShield:
         return self.check(float(np.asarray(self.policy.act(obs), dtype=np.float64).reshape(-1)[0]), dist, err, p)
 
     def check(self, action: float, dist: float, err: float, p: Perception, stalled: bool = False,
-              commit: Commitment | None = None, controller_action: float | None = None) -> float:
+              commit: Commitment | None = None, controller_choice: tuple[float, bool] | None = None) -> float:
         """``action`` (the policy's, already computed) if it is safe, else the nearest safe one.
-        ``controller_action``: ``fallback.decide(dist, err, p)`` when the caller has it already (a
-        residual policy's base is that very action), so it is not computed twice.
+        ``controller_choice``: ``fallback.choose(dist, err, p)`` when the caller has it already (a
+        residual policy's base action is that very action), so it is not computed twice.
         ``stalled`` (the vehicle's ``StallWatch`` says so): the controller's action instead, checked
         like the policy's. ``commit`` (the vehicle's ``Commitment``): an unsafe action right after an
         override is replaced first by the next action of the manoeuvre that made that override safe,
@@ -322,8 +322,12 @@ class SafetyShield:
         (the shipped study policy turned hard left with the waypoint dead ahead), or may circle a goal."""
         a = float(np.clip(action, -1.0, 1.0))
         self.decisions += 1
+        def choice() -> tuple[float, bool]:
+            b, through = self.fallback.choose(dist, err, p) if controller_choice is None else controller_choice
+            return float(b), bool(through)
+
         def controller() -> float:
-            return float(self.fallback.decide(dist, err, p)) if controller_action is None else float(controller_action)
+            return choice()[0]
 
         if self.open_water and len(p.returns) == 0:
             b = controller()
@@ -338,7 +342,7 @@ class SafetyShield:
             self.approaches += int(not stalled)
             self.interventions += 1
         elif self.sure_approach and p.final and dist < self.sure_within:
-            b, through = self.fallback.choose(dist, err, p)
+            b, through = choice()
             if through and abs(b - a) > 1e-9:               # the controller's manoeuvre ends the mission
                 a, guarded = b, True
                 self.approaches += 1
