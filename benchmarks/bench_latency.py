@@ -7,6 +7,11 @@ the tail stays flat), and the policy node's resident memory at the start and end
 Ends with one JSON line. Targets (issue 6): p99 <= 5 ms, flat over a 10-minute run, no memory growth.
 
     .venv/bin/python benchmarks/bench_latency.py [--duration 60] [--rates 10 100] [--policy baseline] [--goal-ahead 8]
+        [--goal-bearing 180] [--param goal_search:=false]
+
+``--goal-ahead M --goal-bearing 180``: the goal M m behind, where no 10-decision manoeuvre of the
+controller's gets (a half turn and back), so the shield's goal search runs at every decision: its
+worst case. ``--param NAME:=VALUE`` (repeatable) passes a parameter to policy_node.
 """
 from __future__ import annotations
 
@@ -36,7 +41,8 @@ def pct(a, q) -> float:
     return float(np.percentile(a, q)) if len(a) else float("nan")
 
 
-def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead: float = 0.0) -> dict:
+def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead: float = 0.0,
+             goal_bearing: float = 0.0, params: tuple[str, ...] = ()) -> dict:
     import rclpy
     from cage_planner_msgs.msg import HeadingSetpoint, Mission
     from nav_msgs.msg import Odometry
@@ -51,6 +57,7 @@ def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), PYTHONUNBUFFERED="1")
     args = ["ros2", "run", "cage_reactive_ddpg", "policy_node", "--ros-args", "-r", "__ns:=/cage", "-p", "lockstep:=false",
             "-p", "scan_timeout:=5.0"] + (["-p", f"policy:={policy}"] if policy else [])
+    args += [a for p in params for a in ("-p", p)]
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
     node_proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     rclpy.init(domain_id=domain)
@@ -71,8 +78,9 @@ def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead
     sc = builtin_file("full_cage.yaml")
     sonar = SonarModel()
     goal = sc.goal
-    if goal_ahead > 0:   # the goal that many metres ahead: every decision is one of the final approach
-        goal = (sc.start[0] + goal_ahead * math.cos(sc.start[2]), sc.start[1] + goal_ahead * math.sin(sc.start[2]))
+    if goal_ahead > 0:   # the goal that many metres off: every decision is one of the final approach
+        bearing = sc.start[2] + math.radians(goal_bearing)
+        goal = (sc.start[0] + goal_ahead * math.cos(bearing), sc.start[1] + goal_ahead * math.sin(bearing))
     mission_pub.publish(mission_msg(1, Mission.ACTIVE, goal, [sc.start[:2], goal], 0))
     deadline = time.monotonic() + 30
     while scan_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
@@ -137,11 +145,17 @@ def main() -> None:
     ap.add_argument("--goal-ahead", type=float, default=0.0,
                     help="put the goal this many m ahead of the vehicle (0: the scenario's, far away): every "
                          "decision is then one of the final approach, where the shield's sure approach runs")
+    ap.add_argument("--goal-bearing", type=float, default=0.0,
+                    help="with --goal-ahead: the goal's bearing from the heading, deg left (180: behind, where "
+                         "the shield's goal search runs at every decision)")
+    ap.add_argument("--param", action="append", default=[], metavar="NAME:=VALUE",
+                    help="a policy_node parameter (repeatable), e.g. goal_search:=false")
     args = ap.parse_args()
     results = []
     for rate in args.rates:
         print(f"measuring {rate:g} Hz for {args.duration:g} s ...", file=sys.stderr, flush=True)
-        results.append(run_rate(rate, args.duration, args.policy, args.windows, args.goal_ahead))
+        results.append(run_rate(rate, args.duration, args.policy, args.windows, args.goal_ahead, args.goal_bearing,
+                                tuple(args.param)))
     print(f"\n{'rate':>6} {'sent':>7} {'lost':>5} {'p50 ms':>8} {'p90 ms':>8} {'p99 ms':>8} {'max ms':>8} "
           f"{'RSS start':>10} {'RSS end':>8}   target p99 <= 5 ms")
     for r in results:

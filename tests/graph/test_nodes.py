@@ -261,6 +261,8 @@ def test_param_set_shield_false_changes_the_policy_node(launch, probe):
     assert not wrong.successful and "bool" in wrong.reason.lower()
     assert set_param("stall_recovery", False).successful
     assert probe.until(lambda: "stall recovery off" in rig.node.output, 5), rig.node.output
+    assert set_param("goal_search", False).successful
+    assert probe.until(lambda: "goal search off" in rig.node.output, 5), rig.node.output
     assert set_param("shield", False).successful
     assert rig.decision(1, ranges, x=0.0), rig.node.output           # the same place and scan again
     sp = rig.setpoints[-1]

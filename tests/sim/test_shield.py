@@ -275,7 +275,10 @@ def test_shield_takes_over_a_policy_that_orbits_the_goal():
     # The goal 2 m to the left, a return in view (so not open water, where the controller flies anyway).
     sc = Scenario("abeam", World(30.0, (), (Obstacle("circle", 3.0, -3.0, 0.5),)), (0.0, 0.0, 0.0), (0.0, 2.0))
     assert run_one(Pursuit(), sc, perception=True).outcome == "timeout"      # it circles the goal
-    guarded, unguarded = SafetyShield(Pursuit(), recover=False), SafetyShield(Pursuit(), approach=False, recover=False)
+    # (the goal search, which finds a longer way through the goal, is off in the unguarded one: the
+    # orbit guard is what is tested)
+    guarded = SafetyShield(Pursuit(), recover=False)
+    unguarded = SafetyShield(Pursuit(), approach=False, recover=False, goal_search=False)
     assert run_one(unguarded, sc, perception=True).outcome == "timeout"
     ep = run_one(guarded, sc, perception=True)
     assert ep.outcome == "goal" and ep.steps <= 22 and 0 < guarded.approaches <= guarded.interventions <= guarded.decisions
@@ -428,36 +431,56 @@ def test_the_controller_says_whether_its_manoeuvre_passes_through_the_goal():
     assert not ctrl.choose(40.0, 0.0, Perception(np.zeros((0, 2)), final=True))[1]     # beyond the rollouts
 
 
+def _fly_to_goal(shield: SafetyShield, action: float, goal, current, rock, decisions: int) -> int | None:
+    """Fly ``shield.check`` of a constant policy ``action`` decision by decision with the vehicle
+    model in a uniform ``current`` (map frame = body frame at the start), one ``rock`` return in view;
+    the decisions it took to pass within 1 m of ``goal``, or None."""
+    from cage_sim.mission import _segment_distance
+    from cage_sim.perception import to_body
+    from cage_sim.vehicle import VehicleParams, decision_step
+    goal, rock, vehicle, pose = np.asarray(goal), np.atleast_2d(rock), VehicleParams(), (0.0, 0.0, 0.0)
+    for i in range(decisions):
+        x, y, yaw = pose
+        g = to_body(goal - (x, y), yaw)
+        p = Perception(to_body(rock - (x, y), yaw), drift=to_body(np.asarray(current), yaw), final=True)
+        nxt = decision_step(*pose, shield.check(action, float(np.hypot(*g)), math.atan2(g[1], g[0]), p),
+                            vehicle, current)
+        if _segment_distance(pose[0], pose[1], nxt[0], nxt[1], *goal) < 1.0:
+            return i + 1
+        pose = nxt
+    return None
+
+
 def test_sure_approach_flies_the_controllers_way_through_a_goal_the_policy_turns_away_from():
     """A goal 6 m ahead and to the left in a 0.3 m/s cross current, a rock far behind (so not open
     water): a policy turning hard right is safe, so a shield without ``sure_approach`` lets it fly
     away from the goal for good. With it (the default) the controller's manoeuvre through the goal
     flies instead, and flown decision by decision with the vehicle model it reaches the goal."""
-    from cage_sim.mission import _segment_distance
-    from cage_sim.perception import to_body
-    from cage_sim.vehicle import VehicleParams, decision_step
-    goal, current, rock = np.array([5.0, 3.0]), (0.0, -0.3), np.array([[-9.0, -3.0]])
-    vehicle = VehicleParams()
-
-    def seen(pose):
-        x, y, yaw = pose
-        g = to_body(goal - (x, y), yaw)
-        return float(np.hypot(*g)), math.atan2(g[1], g[0]), \
-            Perception(to_body(rock - (x, y), yaw), drift=to_body(np.array(current), yaw), final=True)
-
-    def fly(shield: SafetyShield) -> bool:
-        pose = (0.0, 0.0, 0.0)
-        for _ in range(15):
-            nxt = decision_step(*pose, shield.check(-1.0, *seen(pose)), vehicle, current)
-            if _segment_distance(pose[0], pose[1], nxt[0], nxt[1], *goal) < 1.0:
-                return True
-            pose = nxt
-        return False
-
+    goal, current, rock = (5.0, 3.0), (0.0, -0.3), (-9.0, -3.0)
     plain, sure = SafetyShield(Constant(-1.0), sure_approach=False), SafetyShield(Constant(-1.0))
-    assert not fly(plain) and plain.interventions == 0
-    assert fly(sure)
+    assert _fly_to_goal(plain, -1.0, goal, current, rock, 15) is None and plain.interventions == 0
+    assert _fly_to_goal(sure, -1.0, goal, current, rock, 15) is not None
     assert 1 <= sure.approaches == sure.interventions
+
+
+def test_goal_search_finds_a_longer_way_to_a_goal_behind_that_the_current_carries_every_turn_past():
+    """The goal 5.6 m behind and to the left, a 0.52 m/s current pushing left and back (cell 23
+    mission 15 of the sea matrix, decision 18): no 10-decision manoeuvre of the controller's passes
+    through the goal, so a policy flying straight on is never brought to it, sure approach or not.
+    The goal search (15 decisions: a turn, then another) finds one; flown decision by decision with
+    the vehicle model it reaches the goal, and the decisions it took are the search's."""
+    goal, current, rock = (-3.4, 4.5), (-0.17, 0.49), (-9.0, -6.0)
+    plain = SafetyShield(Constant(0.0), goal_search=False)
+    assert _fly_to_goal(plain, 0.0, goal, current, rock, 40) is None
+    assert plain.approaches == 0
+    search = SafetyShield(Constant(0.0))
+    steps = _fly_to_goal(search, 0.0, goal, current, rock, 40)
+    assert steps is not None and steps <= 20
+    assert 0 < search.approaches == search.interventions
+    short = SafetyShield(Constant(0.0), goal_horizon=10)      # the controller's own 10 decisions: none either
+    assert _fly_to_goal(short, 0.0, goal, current, rock, 40) is None
+    with pytest.raises(ValueError, match="goal_horizon"):
+        SafetyShield(Constant(0.0), goal_horizon=1)
 
 
 def test_an_unsafe_action_is_replaced_on_the_side_of_the_manoeuvre_in_hand():
@@ -542,7 +565,8 @@ def test_shield_given_the_controllers_action_decides_as_computing_it():
     own = shield.fallback.choose(5.8, 0.54, near)
     assert own[1]                                                     # the sure approach takes it
     assert shield.check(-1.0, 5.8, 0.54, near) == shield.check(-1.0, 5.8, 0.54, near, controller_choice=own) == own[0]
-    assert shield.check(-1.0, 5.8, 0.54, near, controller_choice=(own[0], False)) == -1.0    # through is read
+    plain = SafetyShield(Constant(0.6), goal_search=False)   # (the goal search would look for another way)
+    assert plain.check(-1.0, 5.8, 0.54, near, controller_choice=(own[0], False)) == -1.0     # through is read
     assert same_decisions(ArcController(), ArcController()) and not same_decisions(ArcController(), ArcController(horizon=8))
 
 

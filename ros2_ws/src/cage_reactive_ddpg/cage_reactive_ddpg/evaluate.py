@@ -193,7 +193,8 @@ def table(name: str, s: dict) -> str:
         lines.append(f"  planner failures (flown straight): {s['planner_failures']}")
     if "shield_decisions" in s:
         lines.append(f"  safety shield: overrode {s['shield_interventions']} of {s['shield_decisions']} decisions "
-                     f"({s.get('shield_approaches', 0)} of them the controller's approach to the goal, "
+                     f"({s.get('shield_approaches', 0)} of them an approach to the goal: the controller's or the "
+                     f"goal search's, "
                      f"{s.get('shield_recoveries', 0)} flown by the controller for a policy making no progress)")
     return "\n".join(lines)
 

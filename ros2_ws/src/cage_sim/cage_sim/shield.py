@@ -56,6 +56,15 @@ goals and 3 goals into misses; over the whole 24-cell matrix the gain is within 
   all decisions of ``cage``, with the same outcomes there). A version that let the policy fly
   until no continuation of its action passed through the goal gained nothing over the sea matrix
   (23,916 goals against 23,915 without either rule; this one: 23,921).
+
+Session 43 adds ``goal_search`` (on by default): when the controller has no manoeuvre through the
+goal in reach, every alternative first action followed by every continuation of ``goal_horizon``
+(15) decisions, held turns and S-turns, is tried for one that passes through the goal clear of
+the returns, and the soonest flies (``through_goal``). Why: by the net in a 0.5 m/s current the
+goal can lie a few metres behind, where every 10-decision manoeuvre is carried past it; the
+policy, or the stall controller, then flew on and away and timed out. 10 decisions gained nothing
+(one goal fewer over the two hardest cells), 15 gained 3 and 10 goals there on two mission sets
+(``docs/notes/sessions.md``); the search takes 3-8 ms when it runs.
 """
 from __future__ import annotations
 
@@ -124,19 +133,24 @@ class SafetyShield:
     s_turns: bool = True             # boxed in for held turns: try two-phase continuations (S-turns) too
     sure_approach: bool = True       # the goal in the controller's reach: its manoeuvre through the goal flies
     sure_within: float = 16.0        # m: the goal is looked for nearer than this (10 decisions + 0.5 m/s drift)
+    goal_search: bool = True         # no controller manoeuvre through the goal: search longer ones (``through_goal``)
+    goal_horizon: int = 15           # decisions such a manoeuvre may take (first action + continuation)
     decisions: int = 0
     interventions: int = 0
-    approaches: int = 0              # decisions the goal-orbit guard or the sure approach took (in interventions too)
+    approaches: int = 0              # decisions the orbit guard, sure approach or goal search took (in interventions too)
     recoveries: int = 0              # decisions flown by the controller for a stalled policy (likewise)
 
     def __post_init__(self) -> None:
         if not (1 <= self.horizon <= self.horizon_max) or self.drift_horizon < 0:
             raise ValueError(f"shield horizon: need 1 <= horizon ({self.horizon}) <= horizon_max "
                              f"({self.horizon_max}) and drift_horizon >= 0 ({self.drift_horizon})")
+        if self.goal_horizon < 2:
+            raise ValueError(f"shield goal_horizon: need >= 2 decisions, got {self.goal_horizon!r}")
         if not self.sure_within > 0:
             raise ValueError(f"shield sure_within: must be > 0 m, got {self.sure_within!r}")
         self._alternatives = np.linspace(-1.0, 1.0, self.n_actions)
         self._conts: dict[tuple[int, bool], np.ndarray] = {}
+        self._ends: np.ndarray | None = None
 
     def horizon_for(self, drift: np.ndarray | None) -> int:
         """Decisions to check given the drift: a current pushes the vehicle on while it turns away
@@ -326,22 +340,21 @@ class SafetyShield:
             b, through = self.fallback.choose(dist, err, p) if controller_choice is None else controller_choice
             return float(b), bool(through)
 
-        def controller() -> float:
-            return choice()[0]
-
         if self.open_water and len(p.returns) == 0:
-            b = controller()
+            b = choice()[0]
             self.interventions += int(abs(b - a) > 0.05)
             self._remember(commit, -1, 0)
             return b
-        guarded = stalled or (self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
-                                                                        self.fallback.goal_pass, p.drift))
-        if guarded:
-            a = controller()                                # checked below like any other action
+        handed = stalled or (self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,
+                                                                       self.fallback.goal_pass, p.drift))
+        sure = self.sure_approach and p.final and dist < self.sure_within
+        through, guarded = False, handed                    # through: a controller manoeuvre through the goal
+        if handed:
+            a, through = choice()                           # checked below like any other action
             self.recoveries += int(stalled)
             self.approaches += int(not stalled)
             self.interventions += 1
-        elif self.sure_approach and p.final and dist < self.sure_within:
+        elif sure:
             b, through = choice()
             if through and abs(b - a) > 1e-9:               # the controller's manoeuvre ends the mission
                 a, guarded = b, True
@@ -358,6 +371,14 @@ class SafetyShield:
         if len(returns) == 0:
             self._remember(commit, -1, h)
             return a
+        if sure and self.goal_search and not through:
+            found = self.through_goal(a, p, goal, h, reach)
+            if found is not None:                           # a clear way through the goal: it ends the mission
+                if not handed and abs(found - a) > 1e-9:    # (a handed decision is counted already)
+                    self.approaches += 1
+                    self.interventions += 1
+                self._remember(commit, -1, h)
+                return found
         look = self._look(returns, rel, goal, p.drift, h)
         if self._margin(a, look, self.min_clearance) >= self.min_clearance:
             self._remember(commit, -1, h)     # the policy's own action: no override to carry on
@@ -383,6 +404,67 @@ class SafetyShield:
             if ok.any():
                 return float(nearest_first[ok][int(np.argmax(margin[ok, -1]))])
         return float(nearest_first[int(np.argmax(margin[:, -1]))])
+
+    def through_goal(self, action: float, p: Perception, goal: np.ndarray, h: int, reach: float) -> float | None:
+        """The first action of the manoeuvre that passes through ``goal`` (body frame) soonest and
+        keeps ``min_clearance`` from the returns up to it, among every alternative first action
+        followed by every continuation of ``goal_horizon`` decisions (held turns and S-turns), or
+        None; ties: the action nearest ``action``. ``h``, ``reach``: the look-ahead and the reach of
+        the returns of the check it stands in for (the returns are taken as far out as the longer
+        manoeuvres fly).
+
+        Why: in a strong drift by the net no 10-decision manoeuvre of the controller's may reach a
+        goal a few metres off (it lies behind, and the current carries every turn past it), so the
+        policy or the stall controller flew on and away (cell 23 mission 15 of the sea matrix: the
+        goal 5.6 m off for 10 decisions, then a timeout); a 15-decision one, a turn and then another,
+        does. Measured in ``docs/notes/sessions.md`` (session 43)."""
+        gh = max(h, self.goal_horizon)
+        near = np.linalg.norm(p.returns, axis=1) < reach + self.fallback.vehicle.step_length * (gh - h)
+        look = self._look(p.returns[near], p.relative()[near], goal, p.drift, gh, s_turns=self.s_turns)
+        return self._through_goal(action, look)
+
+    def _through_goal(self, action: float, look: tuple) -> float | None:
+        """``through_goal`` over the continuations of ``look``. Why it is cheap enough: the goal
+        test is made in each first action's end frame (the goal and the drift turned once per
+        action, not the 21 x C continuations), and only the few manoeuvres it leaves meet the
+        returns, soonest first."""
+        conts, t_first, t_cont, returns, rel, goal, dr = look
+        gp2 = self.fallback.goal_pass ** 2
+        nearest = np.argsort(np.abs(self._alternatives - action), kind="stable")
+        firsts, ends = self._alternatives[nearest], self._first_ends()[nearest]         # [F], [F, 3]
+        c, s = np.cos(ends[:, 2])[:, None, None], np.sin(ends[:, 2])[:, None, None]
+        first = np.stack([0.5 * ends[:, :2], ends[:, :2]], axis=1)                         # [F, 2, 2]
+        at_first = ((first + t_first[:, None] * dr - goal) ** 2).sum(axis=-1) < gp2      # [F, 2]
+        gx, gy = goal[0] - ends[:, 0, None, None], goal[1] - ends[:, 1, None, None]     # end frames:
+        ex = conts[None, :, :, 0] + t_cont * (c * dr[0] + s * dr[1]) - (c * gx + s * gy)
+        ey = conts[None, :, :, 1] + t_cont * (c * dr[1] - s * dr[0]) - (c * gy - s * gx)
+        hit = ex * ex + ey * ey < gp2                                                   # [F, C, P]
+        hit_first = at_first.any(axis=1)
+        f, k = np.nonzero(hit.any(axis=-1) | hit_first[:, None])
+        if len(f) == 0:
+            return None
+        when = np.where(hit_first[f], at_first[f].argmax(axis=-1), 2 + hit[f, k].argmax(axis=-1))
+        order = np.lexsort((f, when))                       # soonest, then nearest the policy's action
+        f, k, when = f[order], k[order], when[order]
+        times = np.concatenate([t_first, t_cont])
+        for lo in range(0, len(f), 4 * CHUNK):
+            fs, ks, ws = f[lo:lo + 4 * CHUNK], k[lo:lo + 4 * CHUNK], when[lo:lo + 4 * CHUNK]
+            rot = np.stack([np.stack([c[fs, 0, 0], s[fs, 0, 0]], axis=-1),
+                            np.stack([-s[fs, 0, 0], c[fs, 0, 0]], axis=-1)], axis=1)      # [N, 2, 2]
+            later = np.einsum("npk,nkl->npl", conts[ks], rot) + ends[fs, None, :2]
+            d = nearest_distance(np.concatenate([first[fs], later], axis=1), times[None, :], rel, returns)
+            d = np.where(np.arange(len(times))[None, :] > ws[:, None], np.inf, d).min(axis=1)
+            ok = np.flatnonzero(d >= self.min_clearance)
+            if len(ok):
+                return float(firsts[fs[ok[0]]])
+        return None
+
+    def _first_ends(self) -> np.ndarray:
+        """[F, 3] the pose after one decision of each alternative first action (computed once)."""
+        if self._ends is None:
+            v = self.fallback.vehicle
+            self._ends = np.array([decision_step(0.0, 0.0, 0.0, float(b), v) for b in self._alternatives])
+        return self._ends
 
     def _remember(self, commit: Commitment | None, index: int, horizon: int) -> None:
         """Leave in ``commit`` the manoeuvre (continuation ``index`` of ``horizon``) that made the

@@ -50,7 +50,7 @@ from sensor_msgs.msg import LaserScan
 
 from ..policy import PolicyLoadError, env_config_for, load_policy, paths, shipped_path
 
-RUNTIME = ("shield", "stall_recovery")   # the parameters ``ros2 param set`` may change while the node runs
+RUNTIME = ("shield", "stall_recovery", "goal_search")   # what ``ros2 param set`` may change while the node runs
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -68,7 +68,8 @@ class PolicyNode(Node):
     def __init__(self) -> None:
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
-        self.p = declare(self, policy="", shield=True, stall_recovery=True, lockstep=True, scan_timeout=1.0, max_invalid_fraction=0.25,
+        self.p = declare(self, policy="", shield=True, stall_recovery=True, goal_search=True, lockstep=True,
+                         scan_timeout=1.0, max_invalid_fraction=0.25,
                          **REPLAN_DEFAULTS, replan_wait=2.0,
                          waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
@@ -108,7 +109,7 @@ class PolicyNode(Node):
         self.add_on_set_parameters_callback(self.on_set_parameters)   # after every declare: rclpy calls it there too
 
     def on_set_parameters(self, params):
-        """``ros2 param set <ns>/policy_node shield false`` (or ``stall_recovery``) takes effect at the
+        """``ros2 param set <ns>/policy_node shield false`` (or ``stall_recovery``, ``goal_search``) takes effect at the
         next decision; the other parameters are read at start only, so changing them at run time is
         refused with the reason."""
         from rcl_interfaces.msg import SetParametersResult
@@ -125,16 +126,25 @@ class PolicyNode(Node):
                 if isinstance(self.policy, SafetyShield):
                     self.policy.recover = prm.value
                 self.get_logger().info(f"stall recovery {'on' if prm.value else 'off'} from the next decision")
+            if prm.name == "goal_search" and prm.value != self.p["goal_search"]:
+                self.p["goal_search"] = prm.value
+                if isinstance(self.policy, SafetyShield):
+                    self.policy.goal_search = prm.value
+                self.get_logger().info(f"goal search {'on' if prm.value else 'off'} from the next decision")
             if prm.name == "shield" and prm.value != self.p["shield"]:
                 self.p["shield"] = prm.value
                 if self.source == HeadingSetpoint.SOURCE_BASELINE:
                     self.get_logger().info(f"shield {prm.value}: no effect on the classical baseline")
                     continue
                 raw = self.policy.policy if isinstance(self.policy, SafetyShield) else self.policy
-                self.driver.policy = SafetyShield(raw, fallback_for(raw, self.layout, self.vehicle),
-                                                  recover=self.p["stall_recovery"]) if prm.value else raw
+                self.driver.policy = self.shielded(raw, self.layout) if prm.value else raw
                 self.get_logger().info(f"safety shield {'on' if prm.value else 'off'} from the next decision")
         return SetParametersResult(successful=True)
+
+    def shielded(self, policy, layout) -> SafetyShield:
+        """``policy`` behind the safety shield with the node's shield parameters."""
+        return SafetyShield(policy, fallback_for(policy, layout, self.vehicle), recover=self.p["stall_recovery"],
+                            goal_search=self.p["goal_search"])
 
     def check_parameters(self) -> None:
         """One line naming a bad parameter (exit 2), not a node that misbehaves later."""
@@ -184,8 +194,7 @@ class PolicyNode(Node):
                                f"{pol.layout.to_dict().get('name')}; training evaluation: {rates}); "
                                f"safety shield {'on' if self.p['shield'] else 'off'}")
         if self.p["shield"]:
-            return SafetyShield(pol, fallback_for(pol, pol.layout, self.vehicle), recover=self.p["stall_recovery"]), \
-                HeadingSetpoint.SOURCE_POLICY, env
+            return self.shielded(pol, pol.layout), HeadingSetpoint.SOURCE_POLICY, env
         return pol, HeadingSetpoint.SOURCE_POLICY, env
 
     # --- inputs ----------------------------------------------------------------------------
@@ -249,7 +258,8 @@ class PolicyNode(Node):
             if isinstance(self.policy, SafetyShield):
                 self.get_logger().info(f"mission {msg.mission_id} over: the shield overrode {self.policy.interventions} "
                                        f"of {self.policy.decisions} decisions so far ({self.policy.approaches} "
-                                       f"goal approaches (orbit guard or sure approach), {self.policy.recoveries} decisions flown by the "
+                                       f"goal approaches (orbit guard, sure approach or goal search), "
+                                       f"{self.policy.recoveries} decisions flown by the "
                                        "controller for a policy making no progress)")
 
     def on_scan(self, msg: LaserScan) -> None:
