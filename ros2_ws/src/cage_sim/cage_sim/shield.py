@@ -64,7 +64,9 @@ the returns, and the soonest flies (``through_goal``). Why: by the net in a 0.5 
 goal can lie a few metres behind, where every 10-decision manoeuvre is carried past it; the
 policy, or the stall controller, then flew on and away and timed out. 10 decisions gained nothing
 (one goal fewer over the two hardest cells), 15 gained 3 and 10 goals there on two mission sets
-(``docs/notes/sessions.md``); the search takes 3-8 ms when it runs.
+(``docs/notes/sessions.md``). The cost: a search takes 3-8 ms, and through ``policy_node`` at
+100 Hz with one at every decision the p99 is 6.7 ms, over the 5 ms target (``benchmarks/
+bench_latency.py --goal-bearing 180``); ``goal_search`` off (a node parameter) gives that back.
 """
 from __future__ import annotations
 
