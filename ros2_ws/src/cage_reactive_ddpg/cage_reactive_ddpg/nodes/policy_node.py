@@ -50,7 +50,9 @@ from sensor_msgs.msg import LaserScan
 
 from ..policy import PolicyLoadError, env_config_for, load_policy, paths, shipped_path
 
-RUNTIME = ("shield", "stall_recovery", "goal_search")   # what ``ros2 param set`` may change while the node runs
+# The shield's options that are node parameters: parameter -> (SafetyShield field, name in the log).
+SHIELD_OPTIONS = {"stall_recovery": ("recover", "stall recovery"), "goal_search": ("goal_search", "goal search")}
+RUNTIME = ("shield", *SHIELD_OPTIONS)   # what ``ros2 param set`` may change while the node runs
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -109,9 +111,9 @@ class PolicyNode(Node):
         self.add_on_set_parameters_callback(self.on_set_parameters)   # after every declare: rclpy calls it there too
 
     def on_set_parameters(self, params):
-        """``ros2 param set <ns>/policy_node shield false`` (or ``stall_recovery``, ``goal_search``) takes effect at the
-        next decision; the other parameters are read at start only, so changing them at run time is
-        refused with the reason."""
+        """``ros2 param set <ns>/policy_node shield false`` (or a ``SHIELD_OPTIONS`` one) takes effect
+        at the next decision; the other parameters are read at start only, so changing them at run
+        time is refused with the reason."""
         from rcl_interfaces.msg import SetParametersResult
         for prm in params:
             if prm.name in RUNTIME:
@@ -121,16 +123,12 @@ class PolicyNode(Node):
                 return SetParametersResult(successful=False,
                                            reason=start_only_reason(prm.name))
         for prm in params:
-            if prm.name == "stall_recovery" and prm.value != self.p["stall_recovery"]:
-                self.p["stall_recovery"] = prm.value
+            if prm.name in SHIELD_OPTIONS and prm.value != self.p[prm.name]:
+                self.p[prm.name] = prm.value
+                field, said = SHIELD_OPTIONS[prm.name]
                 if isinstance(self.policy, SafetyShield):
-                    self.policy.recover = prm.value
-                self.get_logger().info(f"stall recovery {'on' if prm.value else 'off'} from the next decision")
-            if prm.name == "goal_search" and prm.value != self.p["goal_search"]:
-                self.p["goal_search"] = prm.value
-                if isinstance(self.policy, SafetyShield):
-                    self.policy.goal_search = prm.value
-                self.get_logger().info(f"goal search {'on' if prm.value else 'off'} from the next decision")
+                    setattr(self.policy, field, prm.value)
+                self.get_logger().info(f"{said} {'on' if prm.value else 'off'} from the next decision")
             if prm.name == "shield" and prm.value != self.p["shield"]:
                 self.p["shield"] = prm.value
                 if self.source == HeadingSetpoint.SOURCE_BASELINE:
@@ -143,8 +141,8 @@ class PolicyNode(Node):
 
     def shielded(self, policy, layout) -> SafetyShield:
         """``policy`` behind the safety shield with the node's shield parameters."""
-        return SafetyShield(policy, fallback_for(policy, layout, self.vehicle), recover=self.p["stall_recovery"],
-                            goal_search=self.p["goal_search"])
+        return SafetyShield(policy, fallback_for(policy, layout, self.vehicle),
+                            **{field: self.p[name] for name, (field, _) in SHIELD_OPTIONS.items()})
 
     def check_parameters(self) -> None:
         """One line naming a bad parameter (exit 2), not a node that misbehaves later."""
