@@ -77,6 +77,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .controller import ArcController, Policy, act_rows, nearest_distance
+from .goal_search import GoalSearch
 from .perception import Perception
 from .vehicle import VehicleParams, decision_step
 
@@ -152,13 +153,19 @@ class SafetyShield:
             raise ValueError(f"shield sure_within: must be > 0 m, got {self.sure_within!r}")
         self._alternatives = np.linspace(-1.0, 1.0, self.n_actions)
         self._conts: dict[tuple[int, bool], np.ndarray] = {}
-        self._ends: np.ndarray | None = None
+        self._tables: dict[tuple[int, bool], GoalSearch] = {}
 
     def horizon_for(self, drift: np.ndarray | None) -> int:
         """Decisions to check given the drift: a current pushes the vehicle on while it turns away
         (a half turn takes 9 s: 4.5 m at 0.5 m/s), so a state that looks safe for 5 decisions can
         already be one no manoeuvre escapes; the look-ahead grows with the drift to cover the escape."""
         return int(min(self.horizon_max, self.horizon + math.ceil(self.drift_horizon * drift_speed(drift) - 1e-9)))
+
+    def _manoeuvres(self, horizon: int, s_turns: bool = False) -> list[Manoeuvre]:
+        """The continuations of ``horizon - 1`` decisions, in ``_continuations``' order."""
+        n = horizon - 1
+        ms = [self.tail(i, horizon) for i in range(1 + len(TURN_LEVELS) * n)]
+        return ms + list(s_turn_manoeuvres(n)) if s_turns else ms
 
     def _continuations(self, horizon: int, s_turns: bool = False) -> np.ndarray:
         """[C, P, 2] body-frame continuations of ``horizon - 1`` decisions from the origin: straight,
@@ -167,22 +174,13 @@ class SafetyShield:
         key = (horizon, s_turns)
         if key not in self._conts:
             n = horizon - 1
-            ms = [self.tail(i, horizon) for i in range(1 + len(TURN_LEVELS) * n)]
-            if s_turns:
-                ms += list(s_turn_manoeuvres(n))
-            conts = [self._points(m.action_at, n) for m in ms]
+            conts = [self._points(m.action_at, n) for m in self._manoeuvres(horizon, s_turns)]
             self._conts[key] = np.array(conts).reshape(len(conts), 2 * n, 2)
         return self._conts[key]
 
     def _points(self, action_at, n: int) -> np.ndarray:
         """Mid and end points of ``n`` decisions flown from the origin with action_at(h)."""
-        x = y = yaw = 0.0
-        pts = []
-        for h in range(n):
-            x0, y0 = x, y
-            x, y, yaw = decision_step(x, y, yaw, action_at(h), self.fallback.vehicle)
-            pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
-        return np.array(pts).reshape(-1, 2)
+        return manoeuvre_points(action_at, n, self.fallback.vehicle)
 
     def safe(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None,
              goal: np.ndarray | None = None, drift: np.ndarray | None = None,
@@ -423,50 +421,32 @@ class SafetyShield:
         gh = max(h, self.goal_horizon)
         near = np.linalg.norm(p.returns, axis=1) < reach + self.fallback.vehicle.step_length * (gh - h)
         look = self._look(p.returns[near], p.relative()[near], goal, p.drift, gh, s_turns=self.s_turns)
-        return self._through_goal(action, look)
+        return self._through_goal(action, look, self._goal_table(gh))
 
-    def _through_goal(self, action: float, look: tuple) -> float | None:
-        """``through_goal`` over the continuations of ``look``. Why it is cheap enough: the goal
-        test is made in each first action's end frame (the goal and the drift turned once per
-        action, not the 21 x C continuations), and only the few manoeuvres it leaves meet the
-        returns, soonest first."""
-        conts, t_first, t_cont, returns, rel, goal, dr = look
-        gp2 = self.fallback.goal_pass ** 2
-        nearest = np.argsort(np.abs(self._alternatives - action), kind="stable")
-        firsts, ends = self._alternatives[nearest], self._first_ends()[nearest]         # [F], [F, 3]
-        c, s = np.cos(ends[:, 2])[:, None, None], np.sin(ends[:, 2])[:, None, None]
-        first = np.stack([0.5 * ends[:, :2], ends[:, :2]], axis=1)                         # [F, 2, 2]
-        at_first = ((first + t_first[:, None] * dr - goal) ** 2).sum(axis=-1) < gp2      # [F, 2]
-        gx, gy = goal[0] - ends[:, 0, None, None], goal[1] - ends[:, 1, None, None]     # end frames:
-        ex = conts[None, :, :, 0] + t_cont * (c * dr[0] + s * dr[1]) - (c * gx + s * gy)
-        ey = conts[None, :, :, 1] + t_cont * (c * dr[1] - s * dr[0]) - (c * gy - s * gx)
-        hit = ex * ex + ey * ey < gp2                                                   # [F, C, P]
-        hit_first = at_first.any(axis=1)
-        f, k = np.nonzero(hit.any(axis=-1) | hit_first[:, None])
-        if len(f) == 0:
-            return None
-        when = np.where(hit_first[f], at_first[f].argmax(axis=-1), 2 + hit[f, k].argmax(axis=-1))
-        order = np.lexsort((f, when))                       # soonest, then nearest the policy's action
-        f, k, when = f[order], k[order], when[order]
-        times = np.concatenate([t_first, t_cont])
-        for lo in range(0, len(f), 4 * CHUNK):
-            fs, ks, ws = f[lo:lo + 4 * CHUNK], k[lo:lo + 4 * CHUNK], when[lo:lo + 4 * CHUNK]
-            rot = np.stack([np.stack([c[fs, 0, 0], s[fs, 0, 0]], axis=-1),
-                            np.stack([-s[fs, 0, 0], c[fs, 0, 0]], axis=-1)], axis=1)      # [N, 2, 2]
-            later = np.einsum("npk,nkl->npl", conts[ks], rot) + ends[fs, None, :2]
-            d = nearest_distance(np.concatenate([first[fs], later], axis=1), times[None, :], rel, returns)
-            d = np.where(np.arange(len(times))[None, :] > ws[:, None], np.inf, d).min(axis=1)
-            ok = np.flatnonzero(d >= self.min_clearance)
-            if len(ok):
-                return float(firsts[fs[ok[0]]])
-        return None
+    def _through_goal(self, action: float, look: tuple, table: GoalSearch) -> float | None:
+        """``through_goal`` over the manoeuvres of ``table`` (``look``'s continuations after each
+        alternative first action): ``GoalSearch.find``, the policy's nearest first action first."""
+        _, t_first, t_cont, returns, rel, goal, dr = look
+        rank = np.argsort(np.argsort(np.abs(self._alternatives - action), kind="stable"))
+        found = table.find(rank, goal, dr, t_first, t_cont, returns, rel, self.fallback.goal_pass,
+                           self.min_clearance)
+        return None if found is None else float(self._alternatives[found])
 
-    def _first_ends(self) -> np.ndarray:
-        """[F, 3] the pose after one decision of each alternative first action (computed once)."""
-        if self._ends is None:
-            v = self.fallback.vehicle
-            self._ends = np.array([decision_step(0.0, 0.0, 0.0, float(b), v) for b in self._alternatives])
-        return self._ends
+    def _goal_table(self, horizon: int) -> GoalSearch:
+        """The goal search's table for manoeuvres of ``horizon`` decisions (``goal_table``)."""
+        key = (horizon, self.s_turns)
+        if key not in self._tables:
+            self._tables[key] = goal_table(self.fallback.vehicle, tuple(self._alternatives.tolist()),
+                                           tuple(self._manoeuvres(horizon, self.s_turns)), horizon - 1)
+        return self._tables[key]
+
+    def prepare(self) -> "SafetyShield":
+        """Build the goal search's tables now rather than at the first search (about 50 ms each,
+        shared by every shield of the process): a node's first search is then as fast as the rest."""
+        if self.goal_search:
+            for h in range(self.horizon, self.horizon_max + 1):
+                self._goal_table(max(h, self.goal_horizon))
+        return self
 
     def _remember(self, commit: Commitment | None, index: int, horizon: int) -> None:
         """Leave in ``commit`` the manoeuvre (continuation ``index`` of ``horizon``) that made the
@@ -476,6 +456,28 @@ class SafetyShield:
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         return act_rows(self.act_one, obs)
+
+
+def manoeuvre_points(action_at, n: int, vehicle: VehicleParams) -> np.ndarray:
+    """[2n, 2] mid and end points of ``n`` decisions flown from the origin with ``action_at(h)``."""
+    x = y = yaw = 0.0
+    pts = []
+    for h in range(n):
+        x0, y0 = x, y
+        x, y, yaw = decision_step(x, y, yaw, action_at(h), vehicle)
+        pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
+    return np.array(pts).reshape(-1, 2)
+
+
+@functools.lru_cache(maxsize=16)
+def goal_table(vehicle: VehicleParams, firsts: tuple[float, ...], manoeuvres: tuple[Manoeuvre, ...],
+               n: int) -> GoalSearch:
+    """The goal search's table (``GoalSearch``): each first action of ``firsts`` followed by each
+    of the ``manoeuvres`` of ``n`` decisions. Cached per process: it depends on none of the scan."""
+    ends = np.array([decision_step(0.0, 0.0, 0.0, float(b), vehicle) for b in firsts])
+    conts = np.array([manoeuvre_points(m.action_at, n, vehicle) for m in manoeuvres]).reshape(len(manoeuvres), 2 * n, 2)
+    actions = np.array([[m.action_at(j) for j in range(n)] for m in manoeuvres]).reshape(len(manoeuvres), n)
+    return GoalSearch.build(ends, conts, actions)
 
 
 @functools.lru_cache(maxsize=None)

@@ -140,9 +140,10 @@ class PolicyNode(Node):
         return SetParametersResult(successful=True)
 
     def shielded(self, policy, layout) -> SafetyShield:
-        """``policy`` behind the safety shield with the node's shield parameters."""
+        """``policy`` behind the safety shield with the node's shield parameters (its goal search's
+        tables built now, not at the first search)."""
         return SafetyShield(policy, fallback_for(policy, layout, self.vehicle),
-                            **{field: self.p[name] for name, (field, _) in SHIELD_OPTIONS.items()})
+                            **{field: self.p[name] for name, (field, _) in SHIELD_OPTIONS.items()}).prepare()
 
     def check_parameters(self) -> None:
         """One line naming a bad parameter (exit 2), not a node that misbehaves later."""
