@@ -61,7 +61,7 @@ class GoalSearch:
         first = np.stack([0.5 * ends[:, :2], ends[:, :2]], axis=1)
         n_f, n_c, n_p = points.shape[:3]
         span = 2.0 * float(np.abs(points[..., 0]).max()) + 10.0
-        node = np.empty((n_f, n_c, n_p), dtype=np.int64)
+        node = np.empty((n_f, n_c, n_p), dtype=np.int32)   # ids < 2**31: 80,000 nodes
         node_f, node_c, node_slot, key, sorted_node, xy = [], [], [], [], [], []
         count = 0
         for p in range(n_p):                              # decision p // 2 holds slots p and p + 1
@@ -76,8 +76,9 @@ class GoalSearch:
             sorted_node.append(count + order)
             xy.append(at[order])
             count += len(at)
-        return cls(first, points, node, *(np.concatenate(a) for a in (node_f, node_c, node_slot, key,
-                                                                          sorted_node, xy)), span)
+        ids = (np.concatenate(a).astype(np.int32) for a in (node_f, node_c, node_slot))
+        return cls(first, points, node, *ids, np.concatenate(key), np.concatenate(sorted_node).astype(np.int32),
+                   np.concatenate(xy), span)
 
     def hits(self, goal: np.ndarray, drift: np.ndarray, t_cont: np.ndarray, goal_pass: float) -> np.ndarray:
         """The nodes within ``goal_pass`` of the goal carried by ``drift`` (slot by slot): only the
