@@ -57,28 +57,28 @@ class GoalSearch:
         from the origin; ``actions`` [C, P // 2]: the action each continuation holds per decision."""
         c, s = np.cos(ends[:, 2]), np.sin(ends[:, 2])
         rot = np.stack([np.stack([c, s], axis=-1), np.stack([-s, c], axis=-1)], axis=1)     # [F, 2, 2]
-        points = np.einsum("cpk,fkl->fcpl", conts, rot) + ends[:, None, None, :2]           # [F, C, P, 2]
+        n_f, (n_c, n_p) = len(ends), conts.shape[:2]
+        points = np.empty((n_f, n_c, n_p, 2))           # [F, C, P, 2], filled per first action: no 5 MB temporaries
+        for f in range(n_f):
+            points[f] = np.einsum("cpk,kl->cpl", conts, rot[f]) + ends[f, :2]
         first = np.stack([0.5 * ends[:, :2], ends[:, :2]], axis=1)
-        n_f, n_c, n_p = points.shape[:3]
-        span = 2.0 * float(np.abs(points[..., 0]).max()) + 10.0
-        node = np.empty((n_f, n_c, n_p), dtype=np.int32)   # ids < 2**31: 80,000 nodes
-        node_f, node_c, node_slot, key, sorted_node, xy = [], [], [], [], [], []
+        span = 2.0 * max(float(np.abs(points[f, ..., 0]).max()) for f in range(n_f)) + 10.0
+        ways = [np.unique(actions[:, :p // 2 + 1], axis=0, return_index=True, return_inverse=True)[1:]
+                for p in range(n_p)]                      # slot p belongs to decision p // 2
+        total = n_f * sum(len(rep) for rep, _ in ways)
+        node = np.empty((n_f, n_c, n_p), dtype=np.int32)     # ids < 2**31: 80,000 nodes
+        node_f, node_c, node_slot, sorted_node = (np.empty(total, dtype=np.int32) for _ in range(4))
+        key, xy = np.empty(total), np.empty((total, 2))      # filled slot by slot: no lists to join
         count = 0
-        for p in range(n_p):                              # decision p // 2 holds slots p and p + 1
-            _, rep, way = np.unique(actions[:, :p // 2 + 1], axis=0, return_index=True, return_inverse=True)
+        for p, (rep, way) in enumerate(ways):
+            at = points[:, rep, p].reshape(-1, 2)             # node count + i is at[i]
+            here = slice(count, count + len(at))
             node[:, :, p] = count + np.arange(n_f)[:, None] * len(rep) + way.reshape(-1)[None, :]
-            node_f.append(np.repeat(np.arange(n_f), len(rep)))
-            node_c.append(np.tile(rep, n_f))
-            node_slot.append(np.full(n_f * len(rep), p))
-            at = points[:, rep, p].reshape(-1, 2)         # node count + i is at[i]
+            node_f[here], node_c[here], node_slot[here] = np.repeat(np.arange(n_f), len(rep)), np.tile(rep, n_f), p
             order = np.argsort(at[:, 0], kind="stable")
-            key.append(p * span + at[order, 0])
-            sorted_node.append(count + order)
-            xy.append(at[order])
+            key[here], sorted_node[here], xy[here] = p * span + at[order, 0], count + order, at[order]
             count += len(at)
-        ids = (np.concatenate(a).astype(np.int32) for a in (node_f, node_c, node_slot))
-        return cls(first, points, node, *ids, np.concatenate(key), np.concatenate(sorted_node).astype(np.int32),
-                   np.concatenate(xy), span)
+        return cls(first, points, node, node_f, node_c, node_slot, key, sorted_node, xy, span)
 
     def hits(self, goal: np.ndarray, drift: np.ndarray, t_cont: np.ndarray, goal_pass: float) -> np.ndarray:
         """The nodes within ``goal_pass`` of the goal carried by ``drift`` (slot by slot): only the
