@@ -69,3 +69,11 @@ def test_goal_search_table_nodes_are_shared_ways(shield):
             assert (f == f[0]).all() and np.allclose(pts[f, c], pts[f[0], c[0]], atol=0)
             assert table.node_f[i] == f[0] and table.node_c[i] == c.min() and table.node_slot[i] == p
     assert len(table.node_f) < 0.6 * n_f * n_c * n_p          # the shared ways: fewer points to test
+
+
+def test_prepare_builds_the_table_the_search_uses_once_per_process():
+    a = SafetyShield(Straight()).prepare()
+    b = SafetyShield(Straight())
+    assert list(a._tables) == [(15, True)]                    # goal_horizon 15 covers look-aheads 5-10
+    assert b._goal_table(15) is a._tables[(15, True)]         # shared: built once per process
+    assert SafetyShield(Straight(), goal_search=False).prepare()._tables == {}

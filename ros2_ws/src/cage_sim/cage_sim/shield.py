@@ -64,9 +64,12 @@ the returns, and the soonest flies (``through_goal``). Why: by the net in a 0.5 
 goal can lie a few metres behind, where every 10-decision manoeuvre is carried past it; the
 policy, or the stall controller, then flew on and away and timed out. 10 decisions gained nothing
 (one goal fewer over the two hardest cells), 15 gained 3 and 10 goals there on two mission sets
-(``docs/notes/sessions.md``). The cost: a search takes 3-8 ms, and through ``policy_node`` at
-100 Hz with one at every decision the p99 is 6.7 ms, over the 5 ms target (``benchmarks/
-bench_latency.py --goal-bearing 180``); ``goal_search`` off (a node parameter) gives that back.
+(``docs/notes/sessions.md``). The cost: the manoeuvres' points are laid out once per process
+(``cage_sim.goal_search.GoalSearch``, 5.7 MB, built by ``prepare`` or at the first search), so a
+search tests only the points near the goal and measures each shared way to it once: 0.45 ms p50,
+2.0 ms p99 in the decision loop (session 43's, testing every point: 2.7 and 7.3 ms), and through
+``policy_node`` at 100 Hz with a search at every decision the p99 is 3.8-4.3 ms (6.9-8.4 ms before;
+``benchmarks/bench_latency.py --goal-bearing 180``). ``goal_search`` off (a node parameter) skips it.
 """
 from __future__ import annotations
 
