@@ -3,8 +3,9 @@
 Flies N held-out missions of one sea-matrix cell (default: cell 23, 0.5 m/s, small obstacles, goal by
 the net, schools: where the shield works hardest) and times every decision from the scan to the
 action (observation, policy forward, shield). Prints p50 / p99 / max for all decisions, for those of
-the final approach (goal within the shield's ``sure_within``) and for those where the goal search
-ran, and the same for a reference shield side by side (default: ``goal_search`` off), with ratios.
+the final approach (goal within the shield's ``sure_within``), for those where the goal search
+ran and for the search itself (``through_goal``), and the same for a reference shield side by side
+(default: ``goal_search`` off), with ratios.
 Both fly the same missions one after the other; the outcomes are printed too (they may differ: the
 shields decide differently). Never run as a test.
 
@@ -26,12 +27,14 @@ def fly(shield, env, scenarios, routes) -> dict:
     from cage_sim.driver import Driver, decide_batch, mission_moment
     from cage_sim.mission import Mission, noise_stream, observe_batch
     from cage_sim.route import ReplanWatch
-    searched = []
+    searched = []                                      # each search's own time (s)
     inner = shield.through_goal
 
     def counted(*args, **kw):
-        searched.append(True)
-        return inner(*args, **kw)
+        t = time.perf_counter()
+        found = inner(*args, **kw)
+        searched.append(time.perf_counter() - t)
+        return found
     shield.through_goal = counted
     times, kinds, outcomes = [], [], {}
     for sc in scenarios:
@@ -52,7 +55,7 @@ def fly(shield, env, scenarios, routes) -> dict:
                 break
             replan_if_asked(m, watch, routes)
     shield.through_goal = inner
-    return {"times": np.array(times), "kinds": np.array(kinds), "outcomes": outcomes}
+    return {"times": np.array(times), "kinds": np.array(kinds), "outcomes": outcomes, "searches": np.array(searched)}
 
 
 def stats(ms: np.ndarray) -> dict:
@@ -65,7 +68,8 @@ def stats(ms: np.ndarray) -> dict:
 def groups(run: dict) -> dict:
     ms, kinds = run["times"] * 1000.0, run["kinds"]
     return {"all": stats(ms), "final approach": stats(ms[kinds != "other"]),
-            "goal search": stats(ms[kinds == "search"]), "outcomes": run["outcomes"]}
+            "goal search": stats(ms[kinds == "search"]), "the search itself": stats(run["searches"] * 1000.0),
+            "outcomes": run["outcomes"]}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -93,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     runs = {"shipped": groups(fly(shield, env, scs, routes)), a.ref: groups(fly(reference, env, scs, routes))}
     print(f"cell {a.cell} ({cell.name}), {a.missions} missions of seed {a.seed}, one vehicle, ms per decision")
     print(f"{'decisions':16s} {'driver':22s} {'n':>6s} {'p50':>7s} {'p99':>7s} {'max':>7s}")
-    for g in ("all", "final approach", "goal search"):
+    for g in ("all", "final approach", "goal search", "the search itself"):
         for name, r in runs.items():
             s = r[g]
             print(f"{g:16s} {name:22s} {s['n']:6d} {s['p50']:7.2f} {s['p99']:7.2f} {s['max']:7.2f}")
