@@ -106,8 +106,9 @@ class GoalSearch:
         [2], ``t_cont`` [P]: the points' times.
 
         Each manoeuvre is measured up to where it first meets the goal: a hit node whose way there
-        met the goal earlier is dropped (that earlier node is measured first and keeps no more
-        clearance than the longer way), and so is every node after a first decision that meets it."""
+        met the goal earlier is dropped (that earlier node comes first in the order, and its shorter
+        way keeps at least the clearance of the longer one, so the longer way could only win where
+        the earlier one already has), and so is every node after a first decision that meets it."""
         at_first = ((self.first + t_first[:, None] * drift - goal) ** 2).sum(axis=-1) < goal_pass ** 2   # [F, 2]
         hit_first = at_first.any(axis=1)
         nodes = self.hits(goal, drift, t_cont, goal_pass)
@@ -126,7 +127,7 @@ class GoalSearch:
         for lo in range(0, len(f), CHECKS):
             fs, cs, ws = f[lo:lo + CHECKS], c[lo:lo + CHECKS], when[lo:lo + CHECKS]
             cols = int(ws.max()) + 1
-            pts = np.concatenate([self.first[fs], self.points[fs, cs]], axis=1)[:, :cols]
+            pts = np.concatenate([self.first[fs], self.points[fs, cs, :max(cols - 2, 0)]], axis=1)[:, :cols]
             d = nearest_distance(pts, times[None, :cols], relative, returns)
             d = np.where(np.arange(cols)[None, :] > ws[:, None], np.inf, d).min(axis=1)
             ok = np.flatnonzero(d >= min_clearance)
