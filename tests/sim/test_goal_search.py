@@ -36,10 +36,11 @@ def shield():
     return SafetyShield(Straight())
 
 
-@pytest.mark.parametrize("horizon", [6, 15])
-def test_goal_search_table_answers_as_every_point_of_every_manoeuvre(shield, horizon):
+@pytest.mark.parametrize("horizon, options", [(6, {}), (15, {}), (9, {"s_turns": False, "n_actions": 11})])
+def test_goal_search_table_answers_as_every_point_of_every_manoeuvre(horizon, options):
+    shield = SafetyShield(Straight(), **options)
     table = shield._goal_table(horizon)
-    look = shield._look(np.zeros((0, 2)), None, None, None, horizon, s_turns=True)
+    look = shield._look(np.zeros((0, 2)), None, None, None, horizon, s_turns=shield.s_turns)
     t_first, t_cont = look[1], look[2]
     rng = np.random.default_rng(3)
     answers = []
