@@ -40,8 +40,7 @@ def shield():
 def test_goal_search_table_answers_as_every_point_of_every_manoeuvre(horizon, options):
     shield = SafetyShield(Straight(), **options)
     table = shield._goal_table(horizon)
-    look = shield._look(np.zeros((0, 2)), None, None, None, horizon, s_turns=shield.s_turns)
-    t_first, t_cont = look[1], look[2]
+    t_first, t_cont = shield._motion(np.zeros((0, 2)), None, None, None, horizon)[:2]
     rng = np.random.default_rng(3)
     answers = []
     for _ in range(12 if horizon == 15 else 30):

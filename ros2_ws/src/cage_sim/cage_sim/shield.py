@@ -245,12 +245,18 @@ class SafetyShield:
     def _look(self, returns, relative, goal, drift, horizon, s_turns: bool = False) -> tuple:
         """What every first action's check shares: continuations, their times, the returns' motion."""
         h = self.horizon_for(drift) if horizon is None else int(horizon)
+        return (self._continuations(h, s_turns), *self._motion(returns, relative, goal, drift, h))
+
+    def _motion(self, returns, relative, goal, drift, h: int) -> tuple:
+        """``_look`` without the continuations (the goal search has its own table): the times of the
+        first decision's points and of the continuation's, the returns, their relative motion, the
+        goal, the drift."""
         period = self.fallback.vehicle.decision_period
         t_cont = period + np.tile([0.5, 1.0], h - 1) * period + np.repeat(np.arange(h - 1), 2) * period
         returns = np.asarray(returns, dtype=np.float64).reshape(-1, 2)
         rel = np.zeros_like(returns) if relative is None else np.asarray(relative, dtype=np.float64).reshape(-1, 2)
         dr = np.zeros(2) if drift is None else np.asarray(drift, dtype=np.float64)
-        return self._continuations(h, s_turns), np.array([0.5, 1.0]) * period, t_cont, returns, rel, goal, dr
+        return np.array([0.5, 1.0]) * period, t_cont, returns, rel, goal, dr
 
     def _first(self, a: float, look: tuple) -> tuple[float, bool, tuple[float, float, float]]:
         """The first decision flown with action ``a``: (its clearance, whether it passes through
@@ -423,13 +429,14 @@ class SafetyShield:
         does. Measured in ``docs/notes/sessions.md`` (session 43)."""
         gh = max(h, self.goal_horizon)
         near = np.linalg.norm(p.returns, axis=1) < reach + self.fallback.vehicle.step_length * (gh - h)
-        look = self._look(p.returns[near], p.relative()[near], goal, p.drift, gh, s_turns=self.s_turns)
-        return self._through_goal(action, look, self._goal_table(gh))
+        motion = self._motion(p.returns[near], p.relative()[near], goal, p.drift, gh)
+        return self._through_goal(action, motion, self._goal_table(gh))
 
-    def _through_goal(self, action: float, look: tuple, table: GoalSearch) -> float | None:
-        """``through_goal`` over the manoeuvres of ``table`` (``look``'s continuations after each
-        alternative first action): ``GoalSearch.find``, the policy's nearest first action first."""
-        _, t_first, t_cont, returns, rel, goal, dr = look
+    def _through_goal(self, action: float, motion: tuple, table: GoalSearch) -> float | None:
+        """``through_goal`` over the manoeuvres of ``table`` (every alternative first action followed
+        by every continuation), ``motion`` as ``_motion`` gives it: ``GoalSearch.find``, the policy's
+        nearest first action first."""
+        t_first, t_cont, returns, rel, goal, dr = motion
         rank = np.argsort(np.argsort(np.abs(self._alternatives - action), kind="stable"))
         found = table.find(rank, goal, dr, t_first, t_cont, returns, rel, self.fallback.goal_pass,
                            self.min_clearance)
