@@ -5,7 +5,8 @@ the net, schools: where the shield works hardest) and times every decision from 
 action (observation, policy forward, shield). Prints p50 / p99 / max for all decisions, for those of
 the final approach (goal within the shield's ``sure_within``), for those where the goal search
 ran and for the search itself (``through_goal``), and the same for a reference shield side by side
-(default: ``goal_search`` off), with ratios.
+(default: ``goal_search`` off; ``--ref known_map=0``: the same shield without the known map), with
+ratios.
 Both fly the same missions one after the other; the outcomes are printed too (they may differ: the
 shields decide differently). Never run as a test.
 
@@ -21,10 +22,11 @@ import time
 import numpy as np
 
 
-def fly(shield, env, scenarios, routes) -> dict:
+def fly(shield, env, scenarios, routes, known_map: bool = True) -> dict:
     """Every decision's time (s) and kind, and the outcomes, for ``scenarios`` flown one by one."""
     from cage_reactive_ddpg.evaluate import replan_if_asked
     from cage_sim.driver import Driver, decide_batch, mission_moment
+    from cage_sim.map_points import MapPoints
     from cage_sim.mission import Mission, noise_stream, observe_batch
     from cage_sim.route import ReplanWatch
     searched = []                                      # each search's own time (s)
@@ -39,7 +41,8 @@ def fly(shield, env, scenarios, routes) -> dict:
     times, kinds, outcomes = [], [], {}
     for sc in scenarios:
         m, noise = Mission(sc, env), noise_stream(sc)
-        d, watch = Driver(shield, env.layout, env.vehicle, m.builder, True), ReplanWatch.defaults()
+        d = Driver(shield, env.layout, env.vehicle, m.builder, True, MapPoints.from_world(m.world) if known_map else None)
+        watch = ReplanWatch.defaults()
         while True:
             mo = mission_moment(m)
             final = mo.final and m.tracker.waypoint(*m.pose)[0] < shield.sure_within
@@ -77,7 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cell", type=int, default=23)
     ap.add_argument("--missions", type=int, default=40)
     ap.add_argument("--seed", type=int, default=2026)
-    ap.add_argument("--ref", default="goal_search=0", help="the reference shield: FIELD=0/1 of SafetyShield")
+    ap.add_argument("--ref", default="goal_search=0",
+                    help="the reference shield: FIELD=0/1 of SafetyShield, or known_map=0 (no known map)")
     a = ap.parse_args(argv)
     from dataclasses import replace
 
@@ -86,7 +90,8 @@ def main(argv: list[str] | None = None) -> int:
     from cage_reactive_ddpg.missions import waypoint_fn
     field, value = a.ref.split("=")
     shield, _, meta = load_driver(None)
-    reference = replace(shield, **{field: bool(int(value))})
+    ref_map = field != "known_map" or bool(int(value))
+    reference = shield if field == "known_map" else replace(shield, **{field: bool(int(value))})
     env = driver_env(meta, argparse.Namespace(motion=None, sensor=None))
     routes, cell = waypoint_fn("rrt"), MATRICES["sea"][a.cell]
     scs = []
@@ -94,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         sc = cell.sample(np.random.default_rng([a.seed, a.cell, i]))
         scs.append(sc.with_waypoints(routes(sc)))
     fly(shield, env, scs[:2], routes)                  # warm-up: numba kernels, caches
-    runs = {"shipped": groups(fly(shield, env, scs, routes)), a.ref: groups(fly(reference, env, scs, routes))}
+    runs = {"shipped": groups(fly(shield, env, scs, routes)), a.ref: groups(fly(reference, env, scs, routes, ref_map))}
     print(f"cell {a.cell} ({cell.name}), {a.missions} missions of seed {a.seed}, one vehicle, ms per decision")
     print(f"{'decisions':16s} {'driver':22s} {'n':>6s} {'p50':>7s} {'p99':>7s} {'max':>7s}")
     for g in ("all", "final approach", "goal search", "the search itself"):

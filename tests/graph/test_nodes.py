@@ -268,3 +268,54 @@ def test_param_set_shield_false_changes_the_policy_node(launch, probe):
     sp = rig.setpoints[-1]
     assert sp.source == HeadingSetpoint.SOURCE_POLICY and sp.heading == pytest.approx(raw * math.radians(20))
     assert "safety shield off" in rig.node.output
+
+
+def test_policy_node_keeps_its_shield_clear_of_the_known_map(launch, probe):
+    """The shield keeps clear of the ``map`` topic's obstacles beside the sonar's returns: with an
+    empty scan (open water) and a known square on the route 4 m ahead, the node turns away as the
+    offline Driver with the same map does; ``ros2 param set ... known_map false`` puts it back on the
+    returns alone (straight at the waypoint); a bad map is refused by name and the node flies on."""
+    from cage_planner_msgs.msg import CageMap
+    from cage_reactive_ddpg.policy import env_config_for, load_policy
+    from cage_sim.controller import ArcController
+    from cage_sim.driver import Driver
+    from cage_sim.map_points import MapPoints
+    from cage_sim.route import RouteTracker
+    from cage_sim.shield import SafetyShield
+    from cage_sim.world import Obstacle, World
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    world = World(30.0, (Obstacle("square", 4.0, 0.0, 2.0),))
+    ranges = [math.inf] * 72
+    pol = load_policy()
+    cfg = env_config_for(pol.metadata)
+    drv = Driver(SafetyShield(pol, ArcController(cfg.layout, cfg.vehicle)), cfg.layout, cfg.vehicle,
+                 known=MapPoints.from_world(world))
+    tracker = RouteTracker((0.0, 0.0), np.array([[20.0, 0.0]]), cfg.waypoint_radius)
+    tracker.advance(0.0, 0.0)
+    with_map = drv.decide(np.array(ranges), (0.0, 0.0, 0.0), 0.0, None, tracker)[0]
+    drv.known = None
+    without = drv.decide(np.array(ranges), (0.0, 0.0, 0.0), 1.0, None, tracker)[0]
+    assert abs(with_map) > 0.5 and without == pytest.approx(0.0, abs=1e-6)
+
+    rig = PolicyRig(launch, probe, policy="")                       # the shipped policy, shield on
+    map_pub = probe.node.create_publisher(CageMap, "/cage/map", LATCHED)
+    map_pub.publish(world_to_map(world, 0))
+    assert probe.until(lambda: "known map: net radius 30 m, 1 obstacles" in rig.node.output, 10), rig.node.output
+    assert rig.decision(0, ranges, x=0.0), rig.node.output
+    assert rig.setpoints[-1].heading == pytest.approx(with_map * math.radians(20))
+
+    client = probe.node.create_client(SetParameters, "/cage/policy_node/set_parameters")
+    assert probe.until(client.service_is_ready, 15)
+    off = Parameter(name="known_map", value=ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=False))
+    fut = client.call_async(SetParameters.Request(parameters=[off]))
+    assert probe.until(fut.done, 10) and fut.result().results[0].successful
+    assert rig.decision(1, ranges, x=0.0), rig.node.output
+    assert rig.setpoints[-1].heading == pytest.approx(without * math.radians(20), abs=1e-6)
+
+    bad = world_to_map(world, 0)
+    bad.net_radius = -1.0
+    map_pub.publish(bad)
+    assert probe.until(lambda: "map refused" in rig.node.output, 10), rig.node.output
+    assert "net_radius" in rig.node.output
+    assert rig.decision(2, ranges, x=0.0), rig.node.output

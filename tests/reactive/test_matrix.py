@@ -134,3 +134,16 @@ def test_markdown_of_merged_parts_marks_a_missing_driver_row():
                    {**row, "cell": 1, "driver": "shield", "goal": 10, "collision": 0}], "t")
     lines = [ln for ln in md.splitlines() if ln.startswith("| 0.5")]
     assert len(lines) == 2 and lines[0].endswith("| - | - |") and "100.0" in lines[1]
+
+
+def test_shield_rows_are_reused_only_with_the_same_known_map_setting(tmp_path, capsys):
+    """The known map changes the shield's rows only: a shield row flown with ``--known-map off`` is
+    not merged into a run with the map (one line naming ``known_map``); raw and baseline rows are."""
+    args = ["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--cells", "0", "--quiet"]
+    off, plain = tmp_path / "off", tmp_path / "plain"
+    assert main(args + ["--drivers", "shield", "--known-map", "off", "--out", str(off)]) == 0
+    assert json.loads(off.with_suffix(".json").read_text())["known_map"] == "off"
+    assert main(args + ["--drivers", "shield,baseline", "--reuse", str(off.with_suffix(".json"))]) == 2
+    assert "known_map is 'off' there, 'on' here" in capsys.readouterr().err
+    assert main(args + ["--drivers", "baseline", "--known-map", "off", "--out", str(plain)]) == 0
+    assert main(args + ["--drivers", "raw,baseline", "--reuse", str(plain.with_suffix(".json"))]) == 0

@@ -26,6 +26,7 @@ import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, noise_stream, observe_batch
 from cage_sim.driver import Driver, decide_batch, fallback_for, mission_moment
+from cage_sim.map_points import MapPoints
 from cage_sim.route import ReplanWatch
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
@@ -62,7 +63,7 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
                  keep_tracks: int = 0, progress: bool = False, perception: bool = True,
                  replan: WaypointFn | None = None, grace: float = 0.0,
-                 indices: Sequence[int] | None = None) -> list[EpisodeResult]:
+                 indices: Sequence[int] | None = None, known_map: bool = True) -> list[EpisodeResult]:
     """Run every scenario to its end; keep the tracks of the first ``keep_tracks`` episodes.
 
     ``perception``: the baseline and the shield see drift and moving returns (as in the graph);
@@ -75,7 +76,9 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     ended (``late``). Outcomes, steps and distances are still judged at the budget: each mission
     draws its own noise, so its flight up to the budget is the same with or without a grace.
     ``indices``: the episode index of each scenario, ascending (default: its position), what the
-    results carry: a run of chosen missions reports them by their indices in the full set."""
+    results carry: a run of chosen missions reports them by their indices in the full set.
+    ``known_map``: a shield keeps clear of each mission's known map too (``MapPoints``: its known
+    obstacles and nominal net circle, what policy_node gets on the ``map`` topic)."""
     if grace < 0 or not math.isfinite(grace):
         raise ValueError(f"grace: must be a finite number >= 0, got {grace}")
     index = list(indices) if indices is not None else list(range(len(scenarios)))
@@ -89,7 +92,8 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
         budgets = [m.max_steps for m in ms]
         for m in ms:
             m.max_steps = math.ceil((1.0 + grace) * m.max_steps)
-        drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception) for m in ms]
+        drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception,
+                          MapPoints.from_world(m.world) if known_map else None) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
         while live:
@@ -253,9 +257,10 @@ def driver_env(meta: dict | None, a: argparse.Namespace) -> EnvConfig:
 
 def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
              planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None,
-             replan: bool = False, grace: float = 0.0, only: "list[int] | None" = None):
+             replan: bool = False, grace: float = 0.0, only: "list[int] | None" = None, known_map: bool = True):
     """(summary dict, scenarios, results) for ``episodes`` seeded episodes; ``replan``: new plans
-    under way as in the graph (``run_missions``), with the same planner. ``only``: just these
+    under way as in the graph (``run_missions``), with the same planner; ``known_map``: see
+    ``run_missions``. ``only``: just these
     episodes of the set (each the very mission of the full run); the scenarios come back as
     {index: scenario} then."""
     routes = waypoint_fn(planner)
@@ -267,7 +272,7 @@ def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: st
     else:
         scs = flown = episode_scenarios(scenario, episodes, seed, routes)
     res = run_missions(driver, flown, env, keep_tracks=len(flown) if only else keep_tracks, progress=progress,
-                       replan=replan_planner(routes, replan), grace=grace, indices=only)
+                       replan=replan_planner(routes, replan), grace=grace, indices=only, known_map=known_map)
     summary = summarize(res, grace)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))
@@ -294,6 +299,10 @@ def main(argv: list[str] | None = None) -> int:
                          "wall the mean current pushes in, dense = straight every 1 m")
     ap.add_argument("--shield", default="on", choices=["on", "off"],
                     help="run a policy behind the safety shield, as the policy node does (default on)")
+    ap.add_argument("--known-map", default="on", choices=["on", "off"],
+                    help="the shield keeps clear of the mission's known map (known obstacles, nominal net circle) "
+                         "beside the sonar's returns, as policy_node does with the map topic (default on; off: "
+                         "the returns alone, the shield before session 45)")
     ap.add_argument("--replan", default="off", choices=["off", "on"],
                     help="on: ask for a new plan under way when policy_node would (40 decisions without "
                          "progress, 8 m off the route), as the node graph does; off: one plan per mission")
@@ -335,12 +344,13 @@ def main(argv: list[str] | None = None) -> int:
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
                                      keep_tracks=a.episodes if a.failures else 9 if a.plot else 0,
                                      progress=not a.quiet, env=env,
-                                     replan=a.replan == "on", grace=a.grace, only=only)
+                                     replan=a.replan == "on", grace=a.grace, only=only,
+                                     known_map=a.known_map == "on")
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan,
-                   failed=failed_episodes(res), **({"only": only} if only else {}))
+                   known_map=a.known_map, failed=failed_episodes(res), **({"only": only} if only else {}))
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
                        shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)
@@ -368,13 +378,16 @@ def parse_only(a: argparse.Namespace) -> list[int] | None:
 def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observation: dict) -> list[dict]:
     """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked.
     The observation layout is checked where the file records it (files before session 25 do not)."""
-    unrecorded = {"replan": "off", "observation": observation}   # what a file too old to record the key ran with
+    unrecorded = {"replan": "off", "observation": observation,    # what a file too old to record the key ran with
+                  "known_map": "off"}
     rows: list[dict] = []
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
-        for key, mine in (("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                          ("motion", motion), ("sensor", sensor), ("replan", a.replan),
-                          ("observation", observation)):
+        keys = [("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
+                ("motion", motion), ("sensor", sensor), ("replan", a.replan), ("observation", observation)]
+        if any(r["driver"] == "shield" for r in old["rows"]):   # the map changes only the shield's rows
+            keys.append(("known_map", a.known_map))
+        for key, mine in keys:
             if old.get(key, unrecorded.get(key)) != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
         have = {(r["cell"], r["driver"]) for r in rows}
@@ -412,7 +425,8 @@ def matrix_main(a: argparse.Namespace) -> int:
         skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
                                                           for d in drivers}
         rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, env, progress=not a.quiet,
-                             replan=a.replan == "on", skip=skip, grace=a.grace, failures=a.failures, only=only)
+                             replan=a.replan == "on", skip=skip, grace=a.grace, failures=a.failures, only=only,
+                             known_map=a.known_map == "on")
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:
@@ -425,7 +439,7 @@ def matrix_main(a: argparse.Namespace) -> int:
         policy += f" (rows of {sorted({r['driver'] for r in old})} from {a.reuse})"
     per_cell = f"missions {a.only} of {a.episodes}" if only else f"{a.episodes} missions"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {per_cell} per cell, seed {a.seed}, "
-             f"planner {a.planner}, replan {a.replan}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
+             f"planner {a.planner}, replan {a.replan}, known map {a.known_map}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
              + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else ""))
     md = mx.markdown(rows, title)
     print(md)
@@ -433,7 +447,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     mx.write_csv(rows, prefix.with_suffix(".csv"))
     prefix.with_suffix(".json").write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
-         "sensor": env.sonar.profile, "replan": a.replan, "observation": env.layout.to_dict(),
+         "sensor": env.sonar.profile, "replan": a.replan, "known_map": a.known_map, "observation": env.layout.to_dict(),
          "policy": policy, "grace": a.grace, **({"only": only} if only else {}), "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)

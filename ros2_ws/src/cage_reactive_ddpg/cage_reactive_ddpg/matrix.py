@@ -188,7 +188,7 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
                env=None, progress: bool = False, replan: bool = False,
                skip: "set[tuple[int, str]] | frozenset" = frozenset(), grace: float = 0.0,
-               failures: str | None = None, only: "list[int] | None" = None) -> list[dict]:
+               failures: str | None = None, only: "list[int] | None" = None, known_map: bool = True) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver)
     not in ``skip`` (rows another run made, or cells another process runs).
 
@@ -197,7 +197,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     run does. ``grace``: see ``run_missions``; each row then counts its late goals (``late_goal``).
     ``failures`` (a path prefix): each row lists its failed episodes (``failed``), and the tracks of a
     cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``. ``only``: just these
-    missions of each cell (indices below ``episodes``), each the very mission of a full run."""
+    missions of each cell (indices below ``episodes``), each the very mission of a full run.
+    ``known_map``: a shield keeps clear of each mission's known map too (``run_missions``)."""
     from cage_sim.mission import EnvConfig
 
     from .evaluate import failed_episodes, plot_failures, replan_planner, run_missions, summarize
@@ -219,7 +220,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
             scs.append(sc)
         for dname, drv in todo.items():
             res = run_missions(drv, scs, env, keep_tracks=len(scs) if failures else 0, progress=progress,
-                               replan=replan_planner(routes, replan), grace=grace, indices=indices)
+                               replan=replan_planner(routes, replan), grace=grace, indices=indices,
+                               known_map=known_map)
             s = summarize(res, grace)
             if failures:
                 plot_failures(f"{failures}_cell{k}_{dname}.png", dict(zip(indices, scs)), res,

@@ -103,6 +103,12 @@ class ArcController:
             pts += [(0.5 * (x0 + x), 0.5 * (y0 + y)), (x, y)]
         return np.array(pts)
 
+    @property
+    def reach(self) -> float:
+        """m from the vehicle within which a return is kept (``returns``): as far as the rollouts fly,
+        plus the comfort distance."""
+        return self._reach
+
     def returns(self, obs: np.ndarray, reach: float | None = None) -> np.ndarray:
         """Sonar returns within ``reach`` m (default: what the rollouts can come near), as body-frame
         points (K, 2): the obstacle points the manoeuvres are checked against. With a v2 layout that

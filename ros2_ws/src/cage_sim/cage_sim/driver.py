@@ -18,8 +18,9 @@ from typing import Sequence
 import numpy as np
 
 from .controller import ArcController, Policy
+from .map_points import MapPoints
 from .observation import ObservationBuilder
-from .perception import ReturnMotion, body_drift, perceive
+from .perception import Perception, ReturnMotion, body_drift, perceive
 from .route import RouteTracker, StallWatch
 from .shield import Commitment, SafetyShield
 from .sonar import Scan
@@ -49,11 +50,15 @@ class Driver:
 
     ``perception=False``: the shield and the baseline read the observation alone (static returns,
     drift only from a v2 velocity), the drift-free reference of the evaluator. Behind a shield whose
-    ``recover`` is on, a ``StallWatch`` hands a policy that makes no progress to the controller."""
+    ``recover`` is on, a ``StallWatch`` hands a policy that makes no progress to the controller.
+    ``known``: the known map (``MapPoints``) the shield keeps clear of beside the returns (None: the
+    returns alone); the policy, a residual policy's base and the baseline never see it."""
 
     def __init__(self, policy: Policy, layout, vehicle: VehicleParams | None = None,
-                 builder: ObservationBuilder | None = None, perception: bool = True):
+                 builder: ObservationBuilder | None = None, perception: bool = True,
+                 known: MapPoints | None = None):
         self.policy = policy
+        self.known = known
         self.layout = layout
         self.vehicle = vehicle or VehicleParams()
         self.builder = builder or ObservationBuilder(layout)
@@ -157,9 +162,23 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
         before = shield.interventions
         stalled = shield.recover and d.stall is not None and mo.remaining is not None \
             and d.stall.update(mo.remaining)
-        out[j] = shield.check(raw[j], dist, err, p, stalled, d.commit, None if based is None else based[j])
+        p_map = with_map(p, d.known, mo.pose, ctrl.reach)    # as far out as the returns are kept
+        choice = None if based is None or p_map is not p else based[j]   # the base saw no map
+        out[j] = shield.check(raw[j], dist, err, p_map, stalled, d.commit, choice)
         flags[j] = shield.interventions != before
     return np.clip(out, -1.0, 1.0), flags
+
+
+def with_map(p: Perception, known: MapPoints | None, pose, radius: float) -> Perception:
+    """``p`` with the known map's points within ``radius`` m added to its returns (static: the map
+    does not move), or ``p`` itself when there are none. The shield's perception: the residual
+    base keeps ``p``, what it was trained on."""
+    extra = known.near(pose, radius) if known is not None else None
+    if extra is None or not len(extra):
+        return p
+    vel = p.velocities if p.velocities is not None else np.zeros_like(p.returns)
+    return Perception(np.concatenate([p.returns, extra]), np.concatenate([vel, np.zeros_like(extra)]),
+                      p.drift, p.final)
 
 
 class ObservationLabeller:

@@ -9,6 +9,7 @@ import numpy as np
 from .controller import Policy
 from .driver import Driver, decide_batch, mission_moment
 from .env import CageNavEnv
+from .map_points import MapPoints
 from .scenarios import Scenario
 
 
@@ -31,12 +32,17 @@ def run_episode(env: CageNavEnv, policy: Policy, seed: int | None = None,
 
 
 def drive_episode(env: CageNavEnv, driver: Driver, seed: int | None = None,
-                  scenario: Scenario | None = None) -> Episode:
+                  scenario: Scenario | None = None, known_map: bool = True) -> Episode:
     """One seeded episode decided by ``driver`` exactly as policy_node decides (``cage_sim.driver``:
-    perception with the DVL's drift and the returns' motion): the graph's offline reference."""
+    perception with the DVL's drift and the returns' motion; a shield with the mission's known map,
+    as policy_node gets it on ``map``, unless ``known_map`` is off): the graph's offline reference."""
     def act(obs):
         return decide_batch([driver], np.asarray(obs)[None], [mission_moment(env.mission)])[0]
-    return _fly(env, act, seed, scenario, before=driver.reset)
+
+    def before():
+        driver.reset()
+        driver.known = MapPoints.from_world(env.mission.world) if known_map else None
+    return _fly(env, act, seed, scenario, before=before)
 
 
 def _fly(env: CageNavEnv, act: Callable[[np.ndarray], np.ndarray], seed: int | None,

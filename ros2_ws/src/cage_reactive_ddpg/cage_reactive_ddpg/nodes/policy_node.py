@@ -29,14 +29,15 @@ import time
 from collections import OrderedDict
 
 import numpy as np
-from cage_planner_msgs.msg import HeadingSetpoint, Mission, MissionEvent
+from cage_planner_msgs.msg import CageMap, HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import ArcController
 from cage_sim.driver import Driver, fallback_for
+from cage_sim.map_points import MapPoints
 from cage_sim.mission import EnvConfig
 from cage_sim.nodes.node_common import (VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle,
                                         start_only_reason)
 from cage_sim.nodes.node_runner import run_node
-from cage_sim.ros_convert import EVENT_OUTCOMES, mission_points, odom_pose, stamp_ns, time_msg
+from cage_sim.ros_convert import EVENT_OUTCOMES, map_to_world, mission_points, odom_pose, stamp_ns, time_msg
 from cage_sim.recovery import joining_under_way, remaining_route
 from cage_sim.route import REPLAN_DEFAULTS, ReplanWatch, RouteTracker
 from cage_sim.scan_check import ScanSpec, scan_problem
@@ -52,7 +53,7 @@ from ..policy import PolicyLoadError, env_config_for, load_policy, paths, shippe
 
 # The shield's options that are node parameters: parameter -> (SafetyShield field, name in the log).
 SHIELD_OPTIONS = {"stall_recovery": ("recover", "stall recovery"), "goal_search": ("goal_search", "goal search")}
-RUNTIME = ("shield", *SHIELD_OPTIONS)   # what ``ros2 param set`` may change while the node runs
+RUNTIME = ("shield", "known_map", *SHIELD_OPTIONS)   # what ``ros2 param set`` may change while the node runs
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -70,7 +71,8 @@ class PolicyNode(Node):
     def __init__(self) -> None:
         super().__init__("policy_node")
         self.vehicle = declare_vehicle(self)
-        self.p = declare(self, policy="", shield=True, stall_recovery=True, goal_search=True, lockstep=True,
+        self.p = declare(self, policy="", shield=True, stall_recovery=True, goal_search=True, known_map=True,
+                         lockstep=True,
                          scan_timeout=1.0, max_invalid_fraction=0.25,
                          **REPLAN_DEFAULTS, replan_wait=2.0,
                          waypoint_radius=EnvConfig().waypoint_radius,
@@ -100,6 +102,7 @@ class PolicyNode(Node):
         self.finished = False
         self.replan = ReplanWatch(self.p["replan_after"], self.p["min_progress"], self.p["replan_offset"])
         self.held: tuple[int, tuple[float, float, float], LaserScan, float] | None = None   # decision awaiting a plan
+        self.map_points: MapPoints | None = None      # the known map from ``map``, for the shield
 
         self.setpoint_pub = self.create_publisher(HeadingSetpoint, "heading_setpoint", 10)
         self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
@@ -107,6 +110,7 @@ class PolicyNode(Node):
         self.create_subscription(Odometry, "odom", self.on_odom, 10)
         self.create_subscription(Mission, "mission", self.on_mission, LATCHED)
         self.create_subscription(MissionEvent, "mission_event", self.on_event, 10)
+        self.create_subscription(CageMap, "map", self.on_map, LATCHED)
         self.create_timer(0.1, self.watch_scans)
         self.add_on_set_parameters_callback(self.on_set_parameters)   # after every declare: rclpy calls it there too
 
@@ -129,6 +133,10 @@ class PolicyNode(Node):
                 if isinstance(self.policy, SafetyShield):
                     setattr(self.policy, field, prm.value)
                 self.get_logger().info(f"{said} {'on' if prm.value else 'off'} from the next decision")
+            if prm.name == "known_map" and prm.value != self.p["known_map"]:
+                self.p["known_map"] = prm.value
+                self.driver.known = self.map_points if prm.value else None
+                self.get_logger().info(f"known map for the shield {'on' if prm.value else 'off'} from the next decision")
             if prm.name == "shield" and prm.value != self.p["shield"]:
                 self.p["shield"] = prm.value
                 if self.source == HeadingSetpoint.SOURCE_BASELINE:
@@ -218,6 +226,23 @@ class PolicyNode(Node):
             return
         self.scan_stale = True
         self.failsafe(t_ns, pose, f"no scan for {(t_ns - self.last_scan_ns) / 1e9:.1f} s of sim time")
+
+    def on_map(self, msg: CageMap) -> None:
+        """The known map (latched, from the simulator or a survey): the shield keeps clear of its
+        obstacles and net circle beside the sonar's returns (``known_map``). A bad map is refused,
+        logged, and the last good one (or none) kept."""
+        try:
+            points = MapPoints.from_world(map_to_world(msg))
+        except ValueError as err:
+            self.get_logger().error(f"map refused ({err}); the shield keeps to "
+                                    f"{'the last map and ' if self.map_points is not None else ''}the sonar's returns")
+            return
+        self.map_points = points
+        if self.p["known_map"]:
+            self.driver.known = points
+        self.get_logger().info(f"known map: net radius {msg.net_radius:g} m, {len(msg.obstacles)} obstacles "
+                               f"({len(points)} points); the shield keeps clear of it"
+                               f"{'' if self.p['known_map'] else ' once known_map is on'}")
 
     def on_mission(self, msg: Mission) -> None:
         held, self.held = self.held, None      # a new plan, a new mission or a cancel: no longer waiting
