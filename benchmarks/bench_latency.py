@@ -1,6 +1,7 @@
 """Scan published -> heading setpoint received, across processes, through the real policy_node.
 
-The benchmark process publishes a mission (the navigator's Mission message: id and route), then odometry + LaserScan at a fixed rate (10 Hz and 100 Hz by
+The benchmark process publishes the known map (as sim_node does: the shield keeps clear of it) and a
+mission (the navigator's Mission message: id and route), then odometry + LaserScan at a fixed rate (10 Hz and 100 Hz by
 default) and times each HeadingSetpoint the policy node (own process, shipped DDPG weights, free-run
 mode: one decision per scan) sends back. Prints p50/p90/p99/max per rate and per time window (to show
 the tail stays flat), and the policy node's resident memory at the start and end (growth check).
@@ -44,12 +45,12 @@ def pct(a, q) -> float:
 def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead: float = 0.0,
              goal_bearing: float = 0.0, params: tuple[str, ...] = ()) -> dict:
     import rclpy
-    from cage_planner_msgs.msg import HeadingSetpoint, Mission
+    from cage_planner_msgs.msg import CageMap, HeadingSetpoint, Mission
     from nav_msgs.msg import Odometry
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     from sensor_msgs.msg import LaserScan
 
-    from cage_sim.ros_convert import mission_msg, scan_msg, time_msg, yaw_to_quaternion
+    from cage_sim.ros_convert import mission_msg, scan_msg, time_msg, world_to_map, yaw_to_quaternion
     from cage_sim.scenarios import builtin_file
     from cage_sim.sonar import SonarModel
 
@@ -64,6 +65,7 @@ def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead
     node = rclpy.create_node("latency_probe")
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     mission_pub = node.create_publisher(Mission, "/cage/mission", latched)
+    map_pub = node.create_publisher(CageMap, "/cage/map", latched)   # as sim_node: the shield's known map
     odom_pub = node.create_publisher(Odometry, "/cage/odom", 10)
     scan_pub = node.create_publisher(LaserScan, "/cage/scan", qos_profile_sensor_data)
     sent: dict[int, float] = {}
@@ -81,6 +83,7 @@ def run_rate(rate: float, duration: float, policy: str, windows: int, goal_ahead
     if goal_ahead > 0:   # the goal that many metres off: every decision is one of the final approach
         bearing = sc.start[2] + math.radians(goal_bearing)
         goal = (sc.start[0] + goal_ahead * math.cos(bearing), sc.start[1] + goal_ahead * math.sin(bearing))
+    map_pub.publish(world_to_map(sc.world, 0))
     mission_pub.publish(mission_msg(1, Mission.ACTIVE, goal, [sc.start[:2], goal], 0))
     deadline = time.monotonic() + 30
     while scan_pub.get_subscription_count() == 0 and time.monotonic() < deadline:

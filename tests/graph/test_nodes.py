@@ -318,4 +318,7 @@ def test_policy_node_keeps_its_shield_clear_of_the_known_map(launch, probe):
     map_pub.publish(bad)
     assert probe.until(lambda: "map refused" in rig.node.output, 10), rig.node.output
     assert "net_radius" in rig.node.output
+    elsewhere = world_to_map(world, 0, frame="odom")
+    map_pub.publish(elsewhere)
+    assert probe.until(lambda: "frame 'odom', not the odometry's 'map'" in rig.node.output, 10), rig.node.output
     assert rig.decision(2, ranges, x=0.0), rig.node.output

@@ -51,6 +51,11 @@ def test_a_bad_spacing_is_refused(spacing):
         MapPoints.from_world(WORLD, spacing)
 
 
+def test_a_map_too_large_for_the_shield_is_refused_before_it_is_built():
+    with pytest.raises(ValueError, match="map too large.*net_radius 1e\\+06"):
+        MapPoints.from_world(World(1e6))
+
+
 class Constant:
     def __init__(self, a: float):
         self.a = a

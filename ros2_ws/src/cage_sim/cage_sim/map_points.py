@@ -23,6 +23,7 @@ import numpy as np
 from .world import Obstacle, World
 
 SPACING = 0.5   # m between points along an outline
+MAX_POINTS = 100_000   # a map that needs more is refused (a 30 m net is 377 points, a 2 m square 16)
 
 
 def _square(ob: Obstacle, spacing: float) -> np.ndarray:
@@ -52,6 +53,11 @@ class MapPoints:
         nominal centres) and its nominal net circle, as ``cage_sim.ros_convert.world_to_map`` sends it."""
         if not (spacing > 0 and math.isfinite(spacing)):
             raise ValueError(f"map point spacing must be a positive number of m, got {spacing!r}")
+        perimeter = 2 * math.pi * world.net_radius + sum(
+            4 * ob.size if ob.shape == "square" else 2 * math.pi * ob.size for ob in world.known)
+        if perimeter / spacing > MAX_POINTS:
+            raise ValueError(f"map too large for the shield: {perimeter:.0f} m of outlines is more than "
+                             f"{MAX_POINTS} points at {spacing:g} m (net_radius {world.net_radius:g} m)")
         parts = [_circle(0.0, 0.0, world.net_radius, spacing)]
         for ob in world.known:
             parts.append(_square(ob, spacing) if ob.shape == "square" else _circle(ob.x, ob.y, ob.size, spacing))

@@ -40,6 +40,10 @@ With a ``Perception`` (``decide``: drift from the DVL, returns moving with their
 current moves the vehicle 1.25 m over 5 decisions, more than the margin a still-water check
 leaves. ``act`` (observation only) checks in still water against static returns.
 
+The returns are the sonar's and, since session 45, the known map's (``cage_sim.map_points``, added
+by ``driver.with_map``: the known obstacles' outlines and the nominal net circle), so a face the
+sonar has not swept yet is kept clear of too; the shield itself does not tell them apart.
+
 Two additions of session 42 (``s_turns``, ``sure_approach``; on by default, either can be turned
 off; measured in ``docs/notes/sessions.md``: in the two hardest sea cells they turn 9 misses into
 goals and 3 goals into misses; over the whole 24-cell matrix the gain is within the noise):

@@ -232,6 +232,9 @@ class PolicyNode(Node):
         obstacles and net circle beside the sonar's returns (``known_map``). A bad map is refused,
         logged, and the last good one (or none) kept."""
         try:
+            frame = msg.header.frame_id
+            if frame and frame != self.p["frame_id"]:
+                raise ValueError(f"frame {frame!r}, not the odometry's {self.p['frame_id']!r} (frame_id)")
             points = MapPoints.from_world(map_to_world(msg))
         except ValueError as err:
             self.get_logger().error(f"map refused ({err}); the shield keeps to "
@@ -242,7 +245,8 @@ class PolicyNode(Node):
             self.driver.known = points
         self.get_logger().info(f"known map: net radius {msg.net_radius:g} m, {len(msg.obstacles)} obstacles "
                                f"({len(points)} points); the shield keeps clear of it"
-                               f"{'' if self.p['known_map'] else ' once known_map is on'}")
+                               f"{'' if self.p['known_map'] else ' once known_map is on'}"
+                               f"{' (no effect on the classical baseline)' if self.source == HeadingSetpoint.SOURCE_BASELINE else ''}")
 
     def on_mission(self, msg: Mission) -> None:
         held, self.held = self.held, None      # a new plan, a new mission or a cancel: no longer waiting
