@@ -76,13 +76,13 @@ def test_the_shield_keeps_off_a_known_face_the_sonar_has_not_seen():
     outline = MapPoints.from_world(World(30.0, (square,)), spacing=0.05).near((0.0, 0.0, 0.0), 20.0)
     assert shield.margins(np.array([1.0]), outline)[0] < shield.min_clearance
     known = MapPoints.from_world(World(30.0, (square,)))
-    p_map = with_map(p, known, (0.0, 0.0, 0.0), 20.0)
+    p_map = with_map(p, known.near((0.0, 0.0, 0.0), 20.0))
     assert len(p_map.returns) > len(p.returns) and np.all(p_map.velocities[1:] == 0)
     a = shield.check(1.0, 20.0, 0.0, p_map)
     assert a < 1.0                                         # the map's faces make the turn unsafe
     assert shield.margins(np.array([a]), outline)[0] >= shield.min_clearance - 0.05   # and what flies is clear
-    assert with_map(p, None, (0.0, 0.0, 0.0), 20.0) is p
-    assert with_map(p, known, (100.0, 0.0, 0.0), 20.0) is p   # nothing of the map within reach
+    assert with_map(p, None) is p
+    assert with_map(p, known.near((100.0, 0.0, 0.0), 20.0)) is p   # nothing of the map within reach
 
 
 def test_only_the_shield_sees_the_map_the_raw_policy_and_the_baseline_do_not():
@@ -95,3 +95,23 @@ def test_only_the_shield_sees_the_map_the_raw_policy_and_the_baseline_do_not():
         plain = decide_batch([Driver(make(), env.config.layout, env.config.vehicle)], obs[None], [mo])[0]
         mapped = decide_batch([Driver(make(), env.config.layout, env.config.vehicle, known=known)], obs[None], [mo])[0]
         assert np.array_equal(plain, mapped)
+
+
+def test_choose_twice_decides_as_two_choose_calls():
+    """The base's choice (scan alone) and the shield's fallback choice (scan and map) from one
+    clearance of the returns: the same answers as ``choose`` on each perception, in random scenes
+    with moving returns, a drift and the goal near or far."""
+    rng = np.random.default_rng(5)
+    ctrl = ArcController()
+    differ = 0
+    for _ in range(60):
+        returns = rng.uniform(-8, 12, size=(int(rng.integers(0, 40)), 2))
+        vel = np.where(rng.random((len(returns), 1)) < 0.2, rng.normal(0, 0.4, (len(returns), 2)), 0.0)
+        p = Perception(returns, vel, rng.normal(0, 0.25, 2), bool(rng.random() < 0.5))
+        extra = rng.uniform(-10, 12, size=(int(rng.integers(1, 60)), 2))
+        dist, err = float(rng.uniform(1, 20)), float(rng.uniform(-math.pi, math.pi))
+        plain, mapped = ctrl.choose_twice(dist, err, p, extra)
+        assert plain == ctrl.choose(dist, err, p)
+        assert mapped == ctrl.choose(dist, err, with_map(p, extra))
+        differ += plain != mapped
+    assert differ > 5          # the map changed the choice in some scenes: the test can fail

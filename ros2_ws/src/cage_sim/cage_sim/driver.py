@@ -146,34 +146,37 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
         seen.append((float(dist), float(err), perceive(ctrl.returns(o), mo.pose, mo.t, drift, mo.final, d.motion)))
     if base is None and shield is None:          # the classical baseline
         return np.clip([ctrl.decide(*s) for s in seen], -1.0, 1.0), np.zeros(n, dtype=bool)
-    based = None
+    # The known map's points near each vehicle, for the shield (as far out as the returns are kept).
+    extras = [d.known.near(mo.pose, ctrl.reach) if shield is not None and d.known is not None else None
+              for d, mo in zip(drivers, moments)]
+    based = shielded_choice = None
     if base is not None:
-        based = [base.choose(*s) for s in seen]      # (action, through the goal): the shield reads both
+        share = shield is not None and same_decisions(base, shield.fallback)
+        pairs = [base.choose_twice(*s, x) if share and x is not None and len(x) else (base.choose(*s),) * 2
+                 for s, x in zip(seen, extras)]   # (action, through the goal) without and with the map
+        based = [b for b, _ in pairs]
+        shielded_choice = [c for _, c in pairs] if share else None   # what the shield's fallback chooses
         raw = learned.act_residual(obs, np.array([b for b, _ in based]))
     else:
         raw = learned.act(obs)
     raw = np.asarray(raw, dtype=np.float64).reshape(n, -1)[:, 0]
     if shield is None:
         return np.clip(raw, -1.0, 1.0), np.zeros(n, dtype=bool)
-    if based is not None and not same_decisions(base, shield.fallback):
-        based = None
     out, flags = np.empty(n), np.zeros(n, dtype=bool)
     for j, (d, mo, (dist, err, p)) in enumerate(zip(drivers, moments, seen)):
         before = shield.interventions
         stalled = shield.recover and d.stall is not None and mo.remaining is not None \
             and d.stall.update(mo.remaining)
-        p_map = with_map(p, d.known, mo.pose, ctrl.reach)    # as far out as the returns are kept
-        choice = None if based is None or p_map is not p else based[j]   # the base saw no map
-        out[j] = shield.check(raw[j], dist, err, p_map, stalled, d.commit, choice)
+        out[j] = shield.check(raw[j], dist, err, with_map(p, extras[j]), stalled, d.commit,
+                              None if shielded_choice is None else shielded_choice[j])
         flags[j] = shield.interventions != before
     return np.clip(out, -1.0, 1.0), flags
 
 
-def with_map(p: Perception, known: MapPoints | None, pose, radius: float) -> Perception:
-    """``p`` with the known map's points within ``radius`` m added to its returns (static: the map
-    does not move), or ``p`` itself when there are none. The shield's perception: the residual
-    base keeps ``p``, what it was trained on."""
-    extra = known.near(pose, radius) if known is not None else None
+def with_map(p: Perception, extra: np.ndarray | None) -> Perception:
+    """``p`` with the known map's points ``extra`` (body frame, ``MapPoints.near``) added to its
+    returns (static: the map does not move), or ``p`` itself when there are none. The shield's
+    perception: a residual policy's base keeps ``p``, what it was trained on."""
     if extra is None or not len(extra):
         return p
     vel = p.velocities if p.velocities is not None else np.zeros_like(p.returns)
