@@ -127,7 +127,9 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
     batched forward of the learned policy, then each vehicle's shield or baseline with its own
     ``Perception``. A raw policy (or perception off) reads only its observation; a residual policy
     (``residual_base``) gets its base action from the controller with that perception, made once
-    per decision and shared with the shield (``ReturnMotion`` sees every scan once)."""
+    per decision and shared with the shield (``ReturnMotion`` sees every scan once); with a known map
+    (``Driver.known``) the shield reads the scan and the map, the base the scan alone, both choices
+    made from one clearance of the returns (``ArcController.choose_twice``)."""
     policy = drivers[0].policy
     shield = policy if isinstance(policy, SafetyShield) else None
     learned = shield.policy if shield is not None else policy
