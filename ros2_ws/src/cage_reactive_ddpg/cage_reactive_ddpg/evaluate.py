@@ -92,8 +92,9 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
         budgets = [m.max_steps for m in ms]
         for m in ms:
             m.max_steps = math.ceil((1.0 + grace) * m.max_steps)
+        mapped = known_map and isinstance(policy, SafetyShield)    # only a shield reads the map
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception,
-                          MapPoints.from_world(m.world) if known_map else None) for m in ms]
+                          MapPoints.from_world(m.world) if mapped else None) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
         while live:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .perception import to_body
 from .world import Obstacle, World
 
 SPACING = 0.5   # m between points along an outline
@@ -71,7 +72,4 @@ class MapPoints:
         (x, y, yaw, map frame): what a decision's check adds to the returns."""
         x, y, yaw = pose
         d = self.points - (x, y)
-        keep = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] < radius * radius
-        d = d[keep]
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+        return to_body(d[d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] < radius * radius], yaw)
