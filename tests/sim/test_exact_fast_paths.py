@@ -12,6 +12,7 @@ import numpy as np
 from cage_sim.controller import ArcController, _min_squared_near, nearest_distance
 from cage_sim.perception import (Perception, ReturnMotion, _cluster_medians, _point_segment_distance,
                                  to_body, to_map)
+from cage_sim.shield import CHUNK, Commitment, SafetyShield
 from cage_sim.sonar import SonarModel
 from cage_sim.world import Obstacle, World
 
@@ -30,14 +31,14 @@ def random_returns(rng, k: int, moving: float) -> tuple[np.ndarray, np.ndarray]:
 
 def test_clearance_below_cap_is_nearest_distance_bit_for_bit():
     ctrl = ArcController()
-    pts_, t_ = ctrl._distinct_pts, ctrl._distinct_t
+    pts_, t_ = ctrl._distinct.points, ctrl._distinct.times
     rng = np.random.default_rng(11)
     kept = 0
     for case in range(150):
         q, rel = random_returns(rng, int(rng.integers(1, 160)), moving=(0.0, 0.1, 0.5)[case % 3])
         cap = float(rng.choice([1.1, 2.5, 4.0]))
         want = nearest_distance(pts_, t_, rel, q)
-        got = np.sqrt(_min_squared_near(pts_, t_, ctrl._blocks, rel, q, cap))
+        got = np.sqrt(_min_squared_near(pts_, t_, ctrl._distinct.blocks, rel, q, cap))
         below = want < cap
         assert np.array_equal(got[below], want[below])        # exact where it counts
         assert np.all(got[~below] >= cap)                     # elsewhere at least the cap
@@ -49,7 +50,7 @@ class PlainController(ArcController):
     """The controller with the clearance of every (point, return) pair: the reference."""
 
     def _clearance_below(self, cap, rel, pts):
-        return nearest_distance(self._distinct_pts, self._distinct_t, rel, pts)
+        return nearest_distance(self._distinct.points, self._distinct.times, rel, pts)
 
 
 def test_controller_decides_as_with_every_pair():
@@ -65,6 +66,104 @@ def test_controller_decides_as_with_every_pair():
         assert a == plain.decide(dist, err, p), case
         actions.add(round(a, 3))
     assert len(actions) > 10                                  # turns of every kind were chosen
+
+
+def test_capped_horizon_margins_are_exact_below_the_cap():
+    # The boxed-in choice measures its margins capped at min_clearance (session 46): each distinct
+    # continuation point only against the returns near its block. Below the cap the margins must be
+    # the plain ones bit for bit, at or above it they must stay there.
+    shield = SafetyShield(lambda obs: np.zeros(1))
+    rng = np.random.default_rng(46)
+    firsts = np.linspace(-1.0, 1.0, 21)
+    kept = capped = 0
+    for case in range(60):
+        q, rel = random_returns(rng, int(rng.integers(1, 200)), moving=(0.0, 0.3)[case % 2])
+        q *= 0.5                                                    # near: margins on both sides of the cap
+        drift = rel[0]
+        goal = rng.uniform(-8, 8, 2) if case % 3 == 0 else None
+        h, s_turns = int(rng.choice([5, 7, 10])), bool(case % 2)
+        cap = float(rng.choice([1.0, 1.5]))
+        want = shield.horizon_margins(firsts, q, rel, goal, drift, h, s_turns)
+        got = shield.horizon_margins(firsts, q, rel, goal, drift, h, s_turns, cap=cap)
+        below = want < cap
+        assert np.array_equal(got[below], want[below]), case
+        assert np.all(got[~below] >= cap), case
+        kept += int(below.sum())
+        capped += int((~below).sum())
+    assert kept > 500 and capped > 500                               # both sides were tested
+
+
+class PlainShield(SafetyShield):
+    """The shield with every margin measured against every return (the code before session 46):
+    the reference."""
+
+    def horizon_margins(self, *args, cap=None, **kw):
+        return super().horizon_margins(*args, **kw)
+
+    def _margin_at(self, a, look, floor=-math.inf):
+        conts = look[0]
+        m, through, end = self._first(a, look)
+        if through or m < floor:
+            return m, -1
+        best, idx = -math.inf, -1
+        for lo in range(0, len(conts), CHUNK):
+            d = self._along(conts[lo:lo + CHUNK], end, look).min(axis=1, initial=np.inf)
+            j = int(np.argmax(d)) if len(d) else 0
+            if len(d) and float(d[j]) > best:
+                best, idx = float(d[j]), lo + j
+            if best >= floor > -math.inf:
+                break
+        return min(m, best), idx
+
+
+def test_shield_boxed_in_choice_as_with_every_pair():
+    fast, plain = SafetyShield(lambda obs: np.zeros(1)), PlainShield(lambda obs: np.zeros(1))
+    calls, plans = [], set()
+    inner = SafetyShield.horizon_margins
+
+    def counted(self, *args, **kw):
+        calls.append(kw.get("cap"))
+        return inner(self, *args, **kw)
+    rng = np.random.default_rng(7)
+    SafetyShield.horizon_margins = counted
+    try:
+        for case in range(120):
+            q, rel = random_returns(rng, int(rng.integers(20, 160)), moving=(0.0, 0.2)[case % 2])
+            q *= 0.35                                               # crowded: often boxed in
+            drift = rel[0]
+            p = Perception(q, drift[None] - rel, drift, bool(case % 3 == 0))
+            dist, err = float(rng.uniform(0.5, 20)), float(rng.uniform(-math.pi, math.pi))
+            a = float(rng.uniform(-1, 1))
+            mine, theirs = Commitment(), Commitment()          # the manoeuvre each override leaves
+            assert fast.check(a, dist, err, p, commit=mine) == plain.check(a, dist, err, p, commit=theirs), case
+            assert mine.plan == theirs.plan, case
+            plans.add(mine.plan)
+    finally:
+        SafetyShield.horizon_margins = inner
+    assert sum(c is not None for c in calls) > 20                  # the boxed-in branch really ran
+    assert len(plans) > 5                                          # and overrides left various manoeuvres
+
+
+def test_first_safe_continuation_as_with_every_pair():
+    # Past the first chunk of continuations, _margin_at finds the chunk that clears the floor with
+    # capped clearances and measures only that one: the same side of the floor, the same index.
+    fast, plain = SafetyShield(lambda obs: np.zeros(1)), PlainShield(lambda obs: np.zeros(1))
+    rng = np.random.default_rng(3)
+    late = 0
+    for case in range(80):
+        q, rel = random_returns(rng, int(rng.integers(10, 160)), moving=(0.0, 0.3)[case % 2])
+        q *= 0.4
+        drift = rel[0]
+        goal = rng.uniform(-8, 8, 2) if case % 3 == 0 else None
+        look = fast._look(q, rel, goal, drift, int(rng.choice([5, 10])), bool(case % 2))
+        for a in np.linspace(-1.0, 1.0, 21):
+            m, idx = fast._margin_at(float(a), look, fast.min_clearance)
+            want, want_idx = plain._margin_at(float(a), look, fast.min_clearance)
+            assert (m >= fast.min_clearance) == (want >= fast.min_clearance), (case, a)
+            if want >= fast.min_clearance:
+                assert (m, idx) == (want, want_idx), (case, a)
+                late += int(idx >= CHUNK)
+    assert late > 20                                               # found past the first chunk too
 
 
 class PerCluster(ReturnMotion):

@@ -575,8 +575,10 @@ def test_controller_distinct_rollout_points_give_back_every_candidate():
     # decide() computes the clearance once per distinct (point, time) of its candidates and reads
     # it back for each: the table must rebuild every candidate's points and times exactly.
     for ctrl in (ArcController(), ArcController(horizon=6)):
-        idx = ctrl._inverse.reshape(-1)
-        assert len(ctrl._distinct_pts) < ctrl._traj.shape[0] * ctrl._traj.shape[1]
-        assert np.array_equal(ctrl._distinct_pts[idx].reshape(ctrl._traj.shape), ctrl._traj)
-        assert np.array_equal(ctrl._distinct_t[idx].reshape(ctrl._traj.shape[:2]),
+        table = ctrl._distinct
+        idx = table.inverse
+        assert len(table.points) < ctrl._traj.shape[0] * ctrl._traj.shape[1]
+        assert np.array_equal(table.points[idx].reshape(ctrl._traj.shape), ctrl._traj)
+        assert np.array_equal(table.times[idx].reshape(ctrl._traj.shape[:2]),
                               np.broadcast_to(ctrl._times, ctrl._traj.shape[:2]))
+        assert np.array_equal(ctrl._traj.reshape(-1, 2)[table.index], table.points)   # one position of each

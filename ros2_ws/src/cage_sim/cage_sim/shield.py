@@ -83,7 +83,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .controller import ArcController, Policy, act_rows, nearest_distance
+from .controller import ArcController, DistinctPoints, Policy, act_rows, nearest_distance
 from .goal_search import GoalSearch
 from .perception import Perception
 from .vehicle import VehicleParams, decision_step
@@ -160,6 +160,7 @@ class SafetyShield:
             raise ValueError(f"shield sure_within: must be > 0 m, got {self.sure_within!r}")
         self._alternatives = np.linspace(-1.0, 1.0, self.n_actions)
         self._conts: dict[tuple[int, bool], np.ndarray] = {}
+        self._distinct: dict[int, tuple[np.ndarray, DistinctPoints]] = {}   # id of a continuation set -> its table
         self._tables: dict[tuple[int, bool], GoalSearch] = {}
 
     def horizon_for(self, drift: np.ndarray | None) -> int:
@@ -211,12 +212,30 @@ class SafetyShield:
 
     def horizon_margins(self, firsts: np.ndarray, returns: np.ndarray, relative: np.ndarray | None = None,
                         goal: np.ndarray | None = None, drift: np.ndarray | None = None,
-                        horizon: int | None = None, s_turns: bool = False) -> np.ndarray:
+                        horizon: int | None = None, s_turns: bool = False, cap: float | None = None) -> np.ndarray:
         """(F, h): ``margins`` of each first action for every look-ahead 1..h, from one rollout.
         Why one is enough: the continuations of a shorter look-ahead are those of the longer one
-        cut short (hold b for j decisions, then straight, for min(j, k-1) of k-1 decisions)."""
+        cut short (hold b for j decisions, then straight, for min(j, k-1) of k-1 decisions).
+
+        ``cap``: each margin exact where it is below ``cap``, some value >= ``cap`` (inf) elsewhere.
+        Why: the boxed-in choice (``check``) asks of a margin only whether it reaches
+        ``min_clearance``, and compares margins that all lie below it; measured exactly, every
+        point of every continuation (165 with the S-turns) against every return (200 with a known
+        map) made one decision take 31-150 ms (session 45). Capped, each distinct point is measured
+        only against the returns near its block (``DistinctPoints``), with the same values below
+        the cap, so the same choice (``tests/sim/test_shield.py``)."""
         look = self._look(returns, relative, goal, drift, horizon, s_turns)
-        return np.array([self._profile(float(a), look) for a in firsts], dtype=np.float64).reshape(len(firsts), -1)
+        near = None if cap is None else (self._distinct_conts(look[0], look[2]), cap)
+        return np.array([self._profile(float(a), look, near) for a in firsts],
+                        dtype=np.float64).reshape(len(firsts), -1)
+
+    def _distinct_conts(self, conts: np.ndarray, t_cont: np.ndarray) -> DistinctPoints:
+        """The distinct (point, time) pairs of ``conts``, a set ``_continuations`` made (and keeps),
+        flown at ``t_cont``: one table per set, kept beside it."""
+        key = id(conts)
+        if key not in self._distinct or self._distinct[key][0] is not conts:
+            self._distinct[key] = (conts, DistinctPoints.of(conts, t_cont))
+        return self._distinct[key][1]
 
     def first_safe(self, candidates, returns: np.ndarray, relative: np.ndarray | None = None,
                    goal: np.ndarray | None = None, drift: np.ndarray | None = None,
@@ -275,14 +294,21 @@ class SafetyShield:
                 return float(d_first[: int(np.argmax(hit)) + 1].min()), True, (x1, y1, yaw1)
         return float(d_first.min()), False, (x1, y1, yaw1)
 
-    def _along(self, conts: np.ndarray, end: tuple[float, float, float], look: tuple) -> np.ndarray:
+    def _along(self, conts: np.ndarray, end: tuple[float, float, float], look: tuple,
+               near: tuple[DistinctPoints, float] | None = None) -> np.ndarray:
         """[C, P] clearance at each point of the continuations ``conts`` flown from ``end`` (inf
-        after one passes through the goal)."""
+        after one passes through the goal). ``near``: (``conts``' distinct pairs, cap): exact
+        below the cap only (``horizon_margins``)."""
         _, _, t_cont, returns, rel, goal, dr = look
         x1, y1, yaw1 = end
         c, s = math.cos(yaw1), math.sin(yaw1)
         cont0 = conts @ np.array([[c, s], [-s, c]]) + (x1, y1)                          # [C, P, 2]
-        d = nearest_distance(cont0, t_cont[None, :], rel, returns)
+        if near is None:
+            d = nearest_distance(cont0, t_cont[None, :], rel, returns)
+        else:
+            table, cap = near
+            d = table.nearest_below(cont0.reshape(-1, 2)[table.index], rel, returns, cap)[table.inverse]
+            d = d.reshape(cont0.shape[:2])
         if goal is not None:
             hit = np.cumsum(np.linalg.norm(cont0 + t_cont[None, :, None] * dr - goal, axis=-1)
                             < self.fallback.goal_pass, axis=1)
@@ -298,13 +324,16 @@ class SafetyShield:
     def _margin_at(self, a: float, look: tuple, floor: float = -math.inf) -> tuple[float, int]:
         """(``_margin``, index of the continuation that keeps it: the first that clears ``floor``,
         else the best; -1 when none is flown: the first decision passes through the goal or already
-        falls below ``floor``)."""
+        falls below ``floor``). With a ``floor`` the margin is exact where it clears it; below it,
+        it only says so (``_first_clearing``)."""
         conts = look[0]
         m, through, end = self._first(a, look)
         if through or m < floor:
             return m, -1
         best, idx = -math.inf, -1
         for lo in range(0, len(conts), CHUNK):    # stop at the first continuation that clears ``floor``
+            if lo == CHUNK and floor > -math.inf:
+                return self._first_clearing(m, end, look, floor)
             d = self._along(conts[lo:lo + CHUNK], end, look).min(axis=1, initial=np.inf)
             j = int(np.argmax(d)) if len(d) else 0
             if len(d) and float(d[j]) > best:
@@ -313,15 +342,37 @@ class SafetyShield:
                 break
         return min(m, best), idx
 
-    def _profile(self, a: float, look: tuple) -> np.ndarray:
+    def _first_clearing(self, m: float, end: tuple[float, float, float], look: tuple, floor: float
+                        ) -> tuple[float, int]:
+        """``_margin_at`` past its first chunk of continuations, which did not clear ``floor``: the
+        chunk the loop would stop at is found with every continuation's clearance capped at
+        ``floor`` (``horizon_margins``), and only that chunk is measured exactly, so the index (the
+        best of that chunk) is the loop's. Why: when no action is safe (boxed in), the loop
+        measured all 165 continuations of all 21 actions against every return: 40-70 ms of a
+        decision (session 46's trace of sea cell 23). None clears: (the best capped margin, below
+        ``floor``, -1)."""
+        conts = look[0]
+        table = self._distinct_conts(conts, look[2])
+        d = self._along(conts, end, look, (table, floor))[CHUNK:].min(axis=1, initial=np.inf)
+        clear = np.flatnonzero(d >= floor)
+        if len(clear) == 0:
+            return min(m, float(d.max(initial=-math.inf))), -1
+        lo = CHUNK + (int(clear[0]) // CHUNK) * CHUNK
+        exact = self._along(conts[lo:lo + CHUNK], end, look).min(axis=1, initial=np.inf)
+        j = int(np.argmax(exact))
+        return min(m, float(exact[j])), lo + j
+
+    def _profile(self, a: float, look: tuple, near: tuple[DistinctPoints, float] | None = None) -> np.ndarray:
         """[h] the margin of ``a`` for look-aheads 1..h: the running minimum along each continuation,
-        read at the end of each of its decisions, best continuation."""
+        read at the end of each of its decisions, best continuation (``near``: capped, ``_along``).
+        Capped is exact below the cap: a running minimum or a best below it is made of values
+        below it, and one at or above it stays there."""
         conts = look[0]
         m, through, end = self._first(a, look)
         n = conts.shape[1] // 2
         if through or n == 0:
             return np.full(n + 1, m)
-        run = np.minimum.accumulate(self._along(conts, end, look), axis=1)[:, 1::2].max(axis=0)   # [n]
+        run = np.minimum.accumulate(self._along(conts, end, look, near), axis=1)[:, 1::2].max(axis=0)   # [n]
         return np.minimum(m, np.concatenate([[m], run]))
 
     def act_one(self, obs: np.ndarray) -> float:
@@ -411,7 +462,8 @@ class SafetyShield:
         # down to the still-water horizon; among the actions that survive it, the one whose best
         # manoeuvre keeps farthest from the returns over the whole look-ahead (ties: the nearest the
         # policy's): the nearest barely-safe action tends to box the vehicle in a decision later.
-        margin = self.horizon_margins(nearest_first, returns, rel, goal, p.drift, h, self.s_turns)     # [F, h]
+        margin = self.horizon_margins(nearest_first, returns, rel, goal, p.drift, h, self.s_turns,
+                                      cap=self.min_clearance)     # [F, h], exact below min_clearance
         for k in range(h - 1, self.horizon - 1, -1):
             ok = margin[:, k - 1] >= self.min_clearance
             if ok.any():
