@@ -100,20 +100,8 @@ class PlainShield(SafetyShield):
     def horizon_margins(self, *args, cap=None, **kw):
         return super().horizon_margins(*args, **kw)
 
-    def _margin_at(self, a, look, floor=-math.inf):
-        conts = look[0]
-        m, through, end = self._first(a, look)
-        if through or m < floor:
-            return m, -1
-        best, idx = -math.inf, -1
-        for lo in range(0, len(conts), CHUNK):
-            d = self._along(conts[lo:lo + CHUNK], end, look).min(axis=1, initial=np.inf)
-            j = int(np.argmax(d)) if len(d) else 0
-            if len(d) and float(d[j]) > best:
-                best, idx = float(d[j]), lo + j
-            if best >= floor > -math.inf:
-                break
-        return min(m, best), idx
+    def _margin_at(self, a, look, floor=-math.inf, capped=True):
+        return super()._margin_at(a, look, floor, capped=False)
 
 
 def test_shield_boxed_in_choice_as_with_every_pair():

@@ -321,18 +321,19 @@ class SafetyShield:
         continuations are not rolled out), at or above it at the first continuation that clears it."""
         return self._margin_at(a, look, floor)[0]
 
-    def _margin_at(self, a: float, look: tuple, floor: float = -math.inf) -> tuple[float, int]:
+    def _margin_at(self, a: float, look: tuple, floor: float = -math.inf, capped: bool = True) -> tuple[float, int]:
         """(``_margin``, index of the continuation that keeps it: the first that clears ``floor``,
         else the best; -1 when none is flown: the first decision passes through the goal or already
         falls below ``floor``). With a ``floor`` the margin is exact where it clears it; below it,
-        it only says so (``_first_clearing``)."""
+        it only says so (``_first_clearing``; ``capped=False``: every chunk measured exactly in
+        turn, the plain loop the tests hold it to)."""
         conts = look[0]
         m, through, end = self._first(a, look)
         if through or m < floor:
             return m, -1
         best, idx = -math.inf, -1
         for lo in range(0, len(conts), CHUNK):    # stop at the first continuation that clears ``floor``
-            if lo == CHUNK and floor > -math.inf:
+            if capped and lo == CHUNK and floor > -math.inf:
                 return self._first_clearing(m, end, look, floor)
             d = self._along(conts[lo:lo + CHUNK], end, look).min(axis=1, initial=np.inf)
             j = int(np.argmax(d)) if len(d) else 0
