@@ -26,7 +26,6 @@ def fly(shield, env, scenarios, routes, known_map: bool = True) -> dict:
     """Every decision's time (s) and kind, and the outcomes, for ``scenarios`` flown one by one."""
     from cage_reactive_ddpg.evaluate import replan_if_asked
     from cage_sim.driver import Driver, decide_batch, mission_moment
-    from cage_sim.map_points import MapPoints
     from cage_sim.mission import Mission, noise_stream, observe_batch
     from cage_sim.route import ReplanWatch
     searched = []                                      # each search's own time (s)
@@ -41,7 +40,7 @@ def fly(shield, env, scenarios, routes, known_map: bool = True) -> dict:
     times, kinds, outcomes = [], [], {}
     for sc in scenarios:
         m, noise = Mission(sc, env), noise_stream(sc)
-        d = Driver(shield, env.layout, env.vehicle, m.builder, True, MapPoints.from_world(m.world) if known_map else None)
+        d = Driver(shield, env.layout, env.vehicle, m.builder, True, m.map_points if known_map else None)
         watch = ReplanWatch.defaults()
         while True:
             mo = mission_moment(m)

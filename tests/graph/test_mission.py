@@ -74,6 +74,25 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
     assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
 
 
+def test_goal_in_sight_mission_in_the_graph_ends_as_offline(ros_env, tmp_path):
+    """A mission on which the route tracker leaves the route's corner for the goal in sight
+    (``route.RouteTracker``, session 46): sim_node's judge (the mission's own known map) and
+    policy_node's tracker (the map from the ``map`` topic) switch at the same decision, so the
+    outcome, the decisions and the final pose are the offline ones."""
+    from cage_reactive_ddpg.policy import env_config_for
+    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--scenario", CURRENT, "--seed", "14",
+                                 "--time-scale", "50.0", "--timeout", "120")
+    assert result is not None, log
+    driver, _, meta = load_driver(None)
+    config = env_config_for(meta)
+    env = CageNavEnv(CURRENT, config, waypoint_fn=RoutePlanner())
+    ep = drive_episode(env, Driver(driver, config.layout, config.vehicle), seed=14)
+    assert env.mission.tracker.sighted and ep.outcome == "goal"          # offline, the rule fired
+    assert "goal in sight" in (tmp_path / "logs" / "policy_node.log").read_text()   # and in the graph
+    assert result["outcome"] == ep.outcome and result["steps"] == ep.steps, log
+    assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
+
+
 def test_residual_policy_raw_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path):
     """The residual policy without the shield (``--shield off``): policy_node gives it the flown
     baseline's action as its base (drift from the odometry twist, the returns' motion, the final

@@ -16,6 +16,19 @@ WORLD = World(30.0, (Obstacle("square", 5.0, -3.0, 2.0), Obstacle("circle", -6.0
               (Obstacle("circle", 0.0, 10.0, 0.3),), current=(0.3, 0.0), net_loss=None)
 
 
+def test_segment_clearance_is_the_nearest_point_to_the_segment():
+    known = MapPoints.from_world(WORLD)
+    rng = np.random.default_rng(4)
+    for _ in range(30):
+        a, b = rng.uniform(-12, 12, 2), rng.uniform(-12, 12, 2)
+        s = np.linspace(0.0, 1.0, 4001)[:, None]
+        along = a + s * (b - a)                                  # the segment, every few mm
+        brute = np.sqrt(((along[:, None, :] - known.points[None]) ** 2).sum(axis=-1)).min()
+        assert known.segment_clearance(a, b) == pytest.approx(brute, abs=0.01)
+    assert known.segment_clearance((5.0, -1.5), (5.0, -1.5)) == pytest.approx(0.5)   # a point: 0.5 m above the square
+    assert MapPoints(np.zeros((0, 2))).segment_clearance((0, 0), (1, 1)) == math.inf
+
+
 def test_points_lie_on_the_known_outlines_and_the_nominal_circle_every_half_metre():
     pts = MapPoints.from_world(WORLD).points
     on_net = np.isclose(np.hypot(pts[:, 0], pts[:, 1]), 30.0)

@@ -1,9 +1,13 @@
 """Route progress and the replan triggers policy_node acts on (pure code, no middleware)."""
 from __future__ import annotations
 
+import math
+
 import pytest
 
-from cage_sim.route import ReplanWatch, RouteTracker, StallWatch
+from cage_sim.map_points import MapPoints
+from cage_sim.route import GOAL_IN_SIGHT, ReplanWatch, RouteTracker, StallWatch
+from cage_sim.world import Obstacle, World
 
 
 def tracker() -> RouteTracker:
@@ -28,6 +32,29 @@ def test_a_later_waypoint_within_reach_is_flown_on_from():
     assert not t.advance(10.0, 20.0) and t.index == 2     # never back to an earlier one
     t = RouteTracker((0.0, 0.0), [(0.0, 30.0), (10.0, 30.0), (20.0, 30.0)])
     assert not t.advance(18.5, 27.0) and t.index == 0     # 3.4 m from the goal: not within reach (2 m)
+
+
+def test_a_goal_in_sight_is_flown_to_straight():
+    # A corner at (0, 20), the goal 6 m east of it. Pushed off the route to (4, 15), the vehicle is
+    # nearer the goal (5.4 m) than the corner (6.4 m): with the known map clear on the way it flies
+    # straight to the goal; without a map, or with a known square on the way, it keeps the corner.
+    route, off = [(0.0, 20.0), (6.0, 20.0)], (4.0, 15.0)
+    clear = MapPoints.from_world(World(30.0))
+    blocked = MapPoints.from_world(World(30.0, (Obstacle("square", 5.0, 17.5, 1.0),)))
+    assert not RouteTracker((0.0, 0.0), route).advance(*off)                       # no map: the corner
+    assert not RouteTracker((0.0, 0.0), route, known=blocked).advance(*off)        # the way is not clear
+    t = RouteTracker((0.0, 0.0), route, known=clear)
+    assert t.advance(*off) and t.at_last
+    assert t.remaining(*off) == pytest.approx(29 ** 0.5)
+    assert t.segment_offset(5.0, 17.5) == pytest.approx(0.0)                       # judged from here on
+    t = RouteTracker((0.0, 0.0), route, known=clear)
+    assert not t.advance(1.0, 17.0) and t.index == 0                               # the corner is nearer
+    far = RouteTracker((0.0, 0.0), [(0.0, 20.0), (12.0, 20.0)], known=clear)
+    assert math.dist((9.0, 9.0), (12.0, 20.0)) > GOAL_IN_SIGHT
+    assert not far.advance(9.0, 9.0) and far.index == 0                            # nearer, but too far
+    t = RouteTracker((0.0, 0.0), route)
+    t.known = clear                                                                 # a map that came later
+    assert t.advance(*off) and t.at_last
 
 
 def test_following_the_route_asks_for_nothing():

@@ -26,7 +26,6 @@ import numpy as np
 from cage_sim.controller import ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, noise_stream, observe_batch
 from cage_sim.driver import Driver, decide_batch, fallback_for, mission_moment
-from cage_sim.map_points import MapPoints
 from cage_sim.route import ReplanWatch
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
@@ -94,7 +93,7 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
             m.max_steps = math.ceil((1.0 + grace) * m.max_steps)
         mapped = known_map and isinstance(policy, SafetyShield)    # only a shield reads the map
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception,
-                          MapPoints.from_world(m.world) if mapped else None) for m in ms]
+                          m.map_points if mapped else None) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
         while live:

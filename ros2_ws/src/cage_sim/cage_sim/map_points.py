@@ -67,6 +67,19 @@ class MapPoints:
     def __len__(self) -> int:
         return len(self.points)
 
+    def segment_clearance(self, a, b) -> float:
+        """Metres from the segment ``a`` -> ``b`` (map frame) to the nearest map point (inf with
+        none): whether the straight way between two points keeps clear of the known map
+        (``route.RouteTracker``'s goal in sight)."""
+        if len(self.points) == 0:
+            return math.inf
+        a, b = np.asarray(a, dtype=np.float64)[:2], np.asarray(b, dtype=np.float64)[:2]
+        ab, ap = b - a, self.points - a
+        n2 = float(ab @ ab)
+        s = np.clip(ap @ ab / n2, 0.0, 1.0) if n2 > 0 else np.zeros(len(ap))
+        d = ap - s[:, None] * ab
+        return float(np.sqrt((d * d).sum(axis=1).min()))
+
     def near(self, pose, radius: float) -> np.ndarray:
         """(K, 2) body-frame points (x forward, y left) within ``radius`` m of a vehicle at ``pose``
         (x, y, yaw, map frame): what a decision's check adds to the returns."""

@@ -21,6 +21,7 @@ from .fish import FishState
 from .observation import ObservationBuilder, ObservationLayout, ObservationLayoutV2
 from .scenarios import Scenario
 from .sonar import Scan, SonarModel, make_sonar
+from .map_points import MapPoints
 from .route import RouteTracker
 from .vehicle import VehicleParams, decision_step, velocity_over_ground
 
@@ -135,7 +136,8 @@ class Mission:
         self.builder = ObservationBuilder(config.layout)
         self.last_scan: Scan | None = None
         self.x, self.y, self.yaw = (float(v) for v in scenario.start)
-        self.tracker = RouteTracker(scenario.start, scenario.route(), config.waypoint_radius)
+        self.map_points = MapPoints.from_world(self.world)   # the known map, as the map topic carries it
+        self.tracker = RouteTracker(scenario.start, scenario.route(), config.waypoint_radius, self.map_points)
         self.route = self.tracker.route
         self.route_length = self.tracker.length
         self.steps = 0
@@ -204,7 +206,7 @@ class Mission:
     def replan(self, points) -> None:
         """Follow a new route from where the vehicle is (a replan): what is left of the mission is
         judged against it (waypoints, wander); the start, time and distance flown stay."""
-        self.tracker = RouteTracker((self.x, self.y), points, self.config.waypoint_radius)
+        self.tracker = RouteTracker((self.x, self.y), points, self.config.waypoint_radius, self.map_points)
         self.tracker.advance(self.x, self.y)   # past a first waypoint at the pose itself, as policy_node's tracker
         self.route = self.tracker.route
         self.replans += 1

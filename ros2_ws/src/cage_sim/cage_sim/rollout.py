@@ -9,7 +9,6 @@ import numpy as np
 from .controller import Policy
 from .driver import Driver, decide_batch, mission_moment
 from .env import CageNavEnv
-from .map_points import MapPoints
 from .scenarios import Scenario
 
 
@@ -41,7 +40,7 @@ def drive_episode(env: CageNavEnv, driver: Driver, seed: int | None = None,
 
     def before():
         driver.reset()
-        driver.known = MapPoints.from_world(env.mission.world) if known_map else None
+        driver.known = env.mission.map_points if known_map else None
     return _fly(env, act, seed, scenario, before=before)
 
 

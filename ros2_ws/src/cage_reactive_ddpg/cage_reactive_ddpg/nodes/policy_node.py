@@ -102,7 +102,7 @@ class PolicyNode(Node):
         self.finished = False
         self.replan = ReplanWatch(self.p["replan_after"], self.p["min_progress"], self.p["replan_offset"])
         self.held: tuple[int, tuple[float, float, float], LaserScan, float] | None = None   # decision awaiting a plan
-        self.map_points: MapPoints | None = None      # the known map from ``map``, for the shield
+        self.map_points: MapPoints | None = None      # the known map from ``map``: the shield's, the route's
 
         self.setpoint_pub = self.create_publisher(HeadingSetpoint, "heading_setpoint", 10)
         self.event_pub = self.create_publisher(MissionEvent, "mission_event", 10)
@@ -229,8 +229,9 @@ class PolicyNode(Node):
 
     def on_map(self, msg: CageMap) -> None:
         """The known map (latched, from the simulator or a survey): the shield keeps clear of its
-        obstacles and net circle beside the sonar's returns (``known_map``). A bad map is refused,
-        logged, and the last good one (or none) kept."""
+        obstacles and net circle beside the sonar's returns (``known_map``), and the route tracker
+        flies straight to a goal in sight across it (whatever ``known_map`` says: the simulator's
+        judge does). A bad map is refused, logged, and the last good one (or none) kept."""
         try:
             frame = msg.header.frame_id
             if frame and frame != self.p["frame_id"]:
@@ -241,6 +242,8 @@ class PolicyNode(Node):
                                     f"{'the last map and ' if self.map_points is not None else ''}the sonar's returns")
             return
         self.map_points = points
+        if self.tracker is not None:   # the route's goal in sight (route.RouteTracker), as the simulator's judge
+            self.tracker.known = points
         if self.p["known_map"]:
             self.driver.known = points
         self.get_logger().info(f"known map: net radius {msg.net_radius:g} m, {len(msg.obstacles)} obstacles "
@@ -276,7 +279,7 @@ class PolicyNode(Node):
             self.get_logger().info(f"mission {msg.id}: following a route of {len(pts)} waypoints")
         elif not self.finished:
             start = next(reversed(self.odoms.values())) if self.odoms else pts[0]
-            self.route, self.tracker = pts, RouteTracker(start[:2], pts, self.p["waypoint_radius"])
+            self.route, self.tracker = pts, RouteTracker(start[:2], pts, self.p["waypoint_radius"], self.map_points)
             self.get_logger().info(f"mission {msg.id}: following a new plan of {len(pts)} waypoints "
                                    f"({self.tracker.length:.1f} m)")
 
@@ -369,13 +372,17 @@ class PolicyNode(Node):
                 route = remaining_route(route, (x, y))
                 self.get_logger().info(f"mission {self.mission_id}: joined under way at t={t_ns / 1e9:.1f} s, "
                                        f"{len(route)} of {len(self.route)} waypoints ahead")
-            self.tracker = RouteTracker((x, y), route, self.p["waypoint_radius"])
+            self.tracker = RouteTracker((x, y), route, self.p["waypoint_radius"], self.map_points)
             self.driver.reset()                    # memory and return motion start with the mission
             self.last_beam = -math.inf
             self.last_placed = None
             self.get_logger().info(f"mission {self.mission_id}: first decision at t={t_ns / 1e9:.1f} s, "
                                    f"route {self.tracker.length:.1f} m")
+        sighted = self.tracker.sighted
         self.tracker.advance(x, y)
+        if self.tracker.sighted and not sighted:
+            self.get_logger().info(f"mission {self.mission_id}: goal in sight {self.tracker.remaining(x, y):.1f} m "
+                                   "off, the way clear of the known map: flying straight to it")
         if watch and self.watch_progress(t_ns, pose) and self.p["lockstep"]:
             self.held = (t_ns, pose, msg, time.monotonic() + self.p["replan_wait"])
             return
