@@ -70,7 +70,9 @@ class RouteTracker:
         corner no longer matters, and turning back to it cost missions: 5 of the 11 timeouts of the
         shielded default in sea cell 23 (0.5 m/s, goal by the net) came within 4.5-7.9 m of the goal
         while the tracker held an intermediate waypoint, and timed out. The route then runs straight
-        from the vehicle to the goal (the wander test measures from that segment)."""
+        from the vehicle to the goal (the wander test measures from that segment). Over the 24 sea
+        cells the shielded default went 23,937 -> 23,956 goals of 24,000, no cell worse, every cell
+        at >= 99 % (docs/notes/sessions.md, session 46)."""
         start = self.index
         ahead = self._within_reach_ahead(x, y)
         if ahead > self.index:
