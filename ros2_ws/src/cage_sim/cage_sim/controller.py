@@ -319,7 +319,7 @@ class DistinctPoints:
     ``inverse`` [C * P] which distinct pair each point is, ``points`` [N, 2] and ``times`` [N]
     the pairs, ``blocks`` their ``point_blocks``. Why: held turns of k and k + 1 decisions fly the
     same first k (the controller's 1380 points are 800 pairs; the shield's 165 continuations of 18
-    points after a first action, S-turns included, 1530 pairs); and a rigid move of all the points (the shield's
+    points, S-turns included, are 1530); and a rigid move of all the points (the shield's
     continuations flown from the first decision's end) keeps each block a block."""
 
     points: np.ndarray

@@ -223,7 +223,7 @@ class SafetyShield:
         point of every continuation (165 with the S-turns) against every return (200 with a known
         map) made one decision take 31-150 ms (session 45). Capped, each distinct point is measured
         only against the returns near its block (``DistinctPoints``), with the same values below
-        the cap, so the same choice (``tests/sim/test_shield.py``)."""
+        the cap, so the same choice (``tests/sim/test_exact_fast_paths.py``)."""
         look = self._look(returns, relative, goal, drift, horizon, s_turns)
         near = None if cap is None else (self._distinct_conts(look[0], look[2]), cap)
         return np.array([self._profile(float(a), look, near) for a in firsts],
