@@ -84,6 +84,7 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     if len(index) != len(scenarios):
         raise ValueError(f"indices: {len(index)} given for {len(scenarios)} scenarios")
     results: list[EpisodeResult] = []
+    mapped = known_map and isinstance(policy, SafetyShield)    # only a shield reads the map
     bar = tqdm(total=len(scenarios), desc="episodes", disable=not progress, leave=False)
     for lo in range(0, len(scenarios), batch):
         ms = [Mission(sc, config) for sc in scenarios[lo:lo + batch]]
@@ -91,7 +92,6 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
         budgets = [m.max_steps for m in ms]
         for m in ms:
             m.max_steps = math.ceil((1.0 + grace) * m.max_steps)
-        mapped = known_map and isinstance(policy, SafetyShield)    # only a shield reads the map
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception,
                           m.map_points if mapped else None) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None

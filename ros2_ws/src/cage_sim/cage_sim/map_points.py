@@ -1,4 +1,5 @@
-"""The known map as points the safety shield keeps clear of, beside the sonar's returns.
+"""The known map as points the safety shield keeps clear of, beside the sonar's returns (and that
+the route tracker's goal in sight looks across: ``segment_clearance``).
 
 Why: the shield checks its manoeuvres against what the sonar has returned, and a sonar that sees a
 bearing once per sweep (``scanning``: one 2 deg beam at a time, 4 s a turn) leaves faces of an

@@ -18,10 +18,10 @@ from typing import Sequence
 import numpy as np
 
 from .fish import FishState
+from .map_points import MapPoints
 from .observation import ObservationBuilder, ObservationLayout, ObservationLayoutV2
 from .scenarios import Scenario
 from .sonar import Scan, SonarModel, make_sonar
-from .map_points import MapPoints
 from .route import RouteTracker
 from .vehicle import VehicleParams, decision_step, velocity_over_ground
 
