@@ -49,6 +49,28 @@ def test_progress_counts_distance_decisions_and_shield():
     assert p.elapsed_ns == 1_000_000_000
 
 
+def test_progress_with_the_known_map_measures_the_goal_in_sight_as_the_judge():
+    # navigator_node's feedback: the same route tracker as the judge's (route.RouteTracker). Pushed
+    # off to (4, 15), nearer the goal than the corner, with the known map clear on the way, the
+    # distance left is the straight way to the goal, with the map arriving before or after the route.
+    from cage_sim.map_points import MapPoints
+    from cage_sim.world import World
+    route, off = np.array([[0.0, 20.0], [6.0, 20.0]]), (4.0, 15.0, 0.0)
+    clear = MapPoints.from_world(World(30.0))
+    plain = MissionProgress(1, (6.0, 20.0))
+    plain.set_route(route, (0.0, 0.0, 0.0))
+    plain.on_pose(1, off)
+    assert plain.distance_remaining() == pytest.approx(math.hypot(4, 5) + 6.0)      # round the corner
+    for before in (True, False):
+        p = MissionProgress(1, (6.0, 20.0), known=clear if before else None)
+        p.set_route(route, (0.0, 0.0, 0.0))
+        if not before:
+            p.set_known(clear)
+        p.on_pose(1, off)
+        assert p.distance_remaining() == pytest.approx(math.hypot(2, 5)), before     # straight to the goal
+        assert p.tracker.sighted
+
+
 def test_free_domain_sees_a_participant(probe, ros_env):
     """run_mission.sh's domain check: a domain with a participant on it (the probe's) is not free."""
     import importlib.util

@@ -14,7 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .route import RouteTracker
+from .route import KnownOutline, RouteTracker
 
 # Navigate.action result codes (kept equal to the .action file's constants; tested).
 GOAL_REACHED, COLLISION, WANDER, TIMEOUT, PLANNER_FAILED, PREEMPTED, CANCELED, NAVIGATOR_STOPPED = range(8)
@@ -39,12 +39,20 @@ class MissionProgress:
     decisions: set[int] = field(default_factory=set)
     shielded: set[int] = field(default_factory=set)
     waypoint_radius: float = 2.0
+    known: KnownOutline | None = None    # the known map: the route's goal in sight, as the judge's tracker
 
     def set_route(self, route: np.ndarray, pose: tuple[float, float, float] | None) -> None:
         """A (new) route; the tracker starts at the current pose, or the route's first point."""
         self.route = np.asarray(route, dtype=float).reshape(-1, 2)
         start = pose[:2] if pose is not None else self.route[0]
-        self.tracker = RouteTracker(start, self.route, self.waypoint_radius)
+        self.tracker = RouteTracker(start, self.route, self.waypoint_radius, self.known)
+
+    def set_known(self, known: KnownOutline | None) -> None:
+        """The known map arrived (or changed): the tracker flies to a goal in sight across it, so the
+        distance left is the one the judge and ``policy_node`` measure (``route.RouteTracker``)."""
+        self.known = known
+        if self.tracker is not None:
+            self.tracker.known = known
 
     @property
     def path_length(self) -> float:

@@ -14,7 +14,8 @@ Action server ``navigate`` (cage_planner_msgs/action/Navigate) and the RViz goal
    next decision boundary, the policy follows it, the vehicle flies it; a replan from rrt_node comes
    back under the same id;
 4. feedback (pose, distance to go, decisions, shield interventions, time) follows odometry and
-   setpoints; the simulator's outcome on ``mission_event`` ends the goal: SUCCEEDED for the goal,
+   setpoints (the distance along the route as the judge's tracker measures it, the goal in sight
+   across the known map included); the simulator's outcome on ``mission_event`` ends the goal: SUCCEEDED for the goal,
    ABORTED for a collision, wander, timeout or planner failure. Cancel publishes the mission as
    CANCELED: the vehicle holds station and the goal ends CANCELED.
 
@@ -33,6 +34,7 @@ from nav_msgs.msg import Odometry, Path
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+from ..map_points import MapPoints
 from ..navigation import (CANCELED, CODE_NAMES, GOAL_REACHED, NAVIGATOR_STOPPED, OUTCOME_CODES, PLANNER_FAILED,
                          PREEMPTED, MissionProgress, goal_problem)
 from .node_common import declare
@@ -54,10 +56,10 @@ class ActiveGoal:
     """One goal from request to result: its mission, the action goal handle (None for goal_pose)."""
 
     def __init__(self, mission_id: int, goal: tuple[float, float], request_ns: int, handle, future,
-                 waypoint_radius: float):
+                 waypoint_radius: float, known: MapPoints | None = None):
         self.id, self.goal, self.request_ns = mission_id, goal, request_ns
         self.handle, self.future = handle, future
-        self.progress = MissionProgress(mission_id, goal, waypoint_radius=waypoint_radius)
+        self.progress = MissionProgress(mission_id, goal, waypoint_radius=waypoint_radius, known=known)
         self.flying = False          # a route has gone out on `mission`
         self.route: np.ndarray | None = None
         self.sent_wall = 0.0         # when the plan request last went out (wall s)
@@ -72,6 +74,7 @@ class NavigatorNode(Node):
                          planner_config="")
         self.options = node_options(self.p["planner_config"] or None)   # rrt_node's own rrt.yaml
         self.kmap = None
+        self.map_points: MapPoints | None = None   # the feedback tracker's goal in sight (route.RouteTracker)
         self.pose: tuple[int, tuple[float, float, float]] | None = None
         self.active: ActiveGoal | None = None
         self.next_id = 1
@@ -177,7 +180,8 @@ class NavigatorNode(Node):
         now = self.get_clock().now().nanoseconds
         request_ns = max(now, self.last_request_ns + 1)   # unique: answers are matched by it
         self.last_request_ns = request_ns
-        self.active = ActiveGoal(self.next_id, goal, request_ns, handle, future, self.p["waypoint_radius"])
+        self.active = ActiveGoal(self.next_id, goal, request_ns, handle, future, self.p["waypoint_radius"],
+                                 self.map_points)
         self.next_id += 1
         self.get_logger().info(f"mission {self.active.id}: goal ({goal[0]:.2f}, {goal[1]:.2f}) accepted"
                                f"{' (action)' if handle is not None else ' (goal_pose)'}; asking for a route")
@@ -308,12 +312,18 @@ class NavigatorNode(Node):
                 final_position=Point(x=float(r["final"][0]), y=float(r["final"][1]))))
 
     def on_map(self, msg: CageMap) -> None:
+        """The known map: goals are checked against it, and the feedback's tracker flies to a goal in
+        sight across it, as the simulator's judge and ``policy_node`` do (the same distance left)."""
         from cage_global_rrt.known_map import KnownMap
         try:
-            self.kmap = KnownMap.from_world(map_to_world(msg))
+            world = map_to_world(msg)
+            kmap, points = KnownMap.from_world(world), MapPoints.from_world(world)
         except ValueError as err:
             self.get_logger().error(f"map rejected: {err}")
             return
+        self.kmap, self.map_points = kmap, points
+        if self.active is not None:
+            self.active.progress.set_known(points)
         self.get_logger().info(f"map: net {self.kmap.net_radius:g} m, {len(msg.obstacles)} known obstacles")
 
     def destroy_node(self) -> None:
