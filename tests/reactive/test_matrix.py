@@ -72,10 +72,16 @@ def test_cli_matrix_failures_name_and_plot_each_cells_misses(tmp_path):
     again = tmp_path / "again"
     assert main(["--matrix", "tiny", "--episodes", "6", "--seed", "5", "--drivers", "raw", "--policy", calm,
                  "--cells", str(row["cell"]), "--only", ",".join(str(f["index"]) for f in row["failed"]),
-                 "--out", str(again), "--quiet"]) == 0
+                 "--out", str(again), "--trace", str(tmp_path / "trace.csv"), "--quiet"]) == 0
     (redo,) = json.loads(again.with_suffix(".json").read_text())["rows"]
     assert redo["episodes"] == len(row["failed"]) and redo["goal"] == 0
     assert all(redo[o] == sum(f["outcome"] == o for f in row["failed"]) for o in ("collision", "wander", "timeout"))
+    # --trace: each miss decision by decision, with its cell, driver, index and the outcome it ended in
+    import csv
+    trace = list(csv.DictReader((tmp_path / "trace.csv").open()))
+    assert {(r["cell"], r["driver"]) for r in trace} == {(str(row["cell"]), "raw")}
+    ends = {int(r["episode"]): (r["outcome"], int(r["decision"]) + 1) for r in trace if r["outcome"]}
+    assert ends == {f["index"]: (f["outcome"], f["steps"]) for f in row["failed"]}
     assert main(["--matrix", "tiny", "--episodes", "6", "--seed", "5", "--drivers", "raw", "--policy", calm,
                  "--only", "1", "--reuse", str(prefix.with_suffix(".json")), "--quiet"]) == 2
 

@@ -31,6 +31,7 @@ from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
 from tqdm import tqdm
 
+from .decision_trace import decision_row, finish_row, write_trace
 from .missions import PLANNERS, WaypointFn, episode_scenarios, waypoint_fn
 
 
@@ -62,7 +63,8 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, batch: int = 250,
                  keep_tracks: int = 0, progress: bool = False, perception: bool = True,
                  replan: WaypointFn | None = None, grace: float = 0.0,
-                 indices: Sequence[int] | None = None, known_map: bool = True) -> list[EpisodeResult]:
+                 indices: Sequence[int] | None = None, known_map: bool = True,
+                 trace: list[dict] | None = None) -> list[EpisodeResult]:
     """Run every scenario to its end; keep the tracks of the first ``keep_tracks`` episodes.
 
     ``perception``: the baseline and the shield see drift and moving returns (as in the graph);
@@ -77,7 +79,8 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
     ``indices``: the episode index of each scenario, ascending (default: its position), what the
     results carry: a run of chosen missions reports them by their indices in the full set.
     ``known_map``: a shield keeps clear of each mission's known map too (``MapPoints``: its known
-    obstacles and nominal net circle, what policy_node gets on the ``map`` topic)."""
+    obstacles and nominal net circle, what policy_node gets on the ``map`` topic).
+    ``trace``: a list that gets one row per decision of every mission (``decision_trace``)."""
     if grace < 0 or not math.isfinite(grace):
         raise ValueError(f"grace: must be a finite number >= 0, got {grace}")
     index = list(indices) if indices is not None else list(range(len(scenarios)))
@@ -98,10 +101,14 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
         live = list(range(len(ms)))
         while live:
             obs = observe_batch(config, [ms[i] for i in live], [noise[i] for i in live])
-            acts, _ = decide_batch([drivers[i] for i in live], obs, [mission_moment(ms[i]) for i in live])
+            acts, shielded = decide_batch([drivers[i] for i in live], obs, [mission_moment(ms[i]) for i in live])
             still = []
-            for i, a in zip(live, acts):
+            for i, a, flag in zip(live, acts, shielded):
+                row = decision_row(ms[i], index[lo + i], a, flag) if trace is not None else None
                 _, outcome = ms[i].step(float(np.clip(a, -1.0, 1.0)))
+                if row is not None:
+                    finish_row(row, outcome)
+                    trace.append(row)
                 if outcome is None:
                     still.append(i)
                     if watches is not None:
@@ -257,10 +264,11 @@ def driver_env(meta: dict | None, a: argparse.Namespace) -> EnvConfig:
 
 def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: str = "continuous",
              planner: str = "none", keep_tracks: int = 9, progress: bool = False, env: EnvConfig | None = None,
-             replan: bool = False, grace: float = 0.0, only: "list[int] | None" = None, known_map: bool = True):
+             replan: bool = False, grace: float = 0.0, only: "list[int] | None" = None, known_map: bool = True,
+             trace: list[dict] | None = None):
     """(summary dict, scenarios, results) for ``episodes`` seeded episodes; ``replan``: new plans
     under way as in the graph (``run_missions``), with the same planner; ``known_map``: see
-    ``run_missions``. ``only``: just these
+    ``run_missions``; ``trace``: see ``run_missions``. ``only``: just these
     episodes of the set (each the very mission of the full run); the scenarios come back as
     {index: scenario} then."""
     routes = waypoint_fn(planner)
@@ -272,7 +280,8 @@ def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: st
     else:
         scs = flown = episode_scenarios(scenario, episodes, seed, routes)
     res = run_missions(driver, flown, env, keep_tracks=len(flown) if only else keep_tracks, progress=progress,
-                       replan=replan_planner(routes, replan), grace=grace, indices=only, known_map=known_map)
+                       replan=replan_planner(routes, replan), grace=grace, indices=only, known_map=known_map,
+                       trace=trace)
     summary = summarize(res, grace)
     # Missions whose plan failed fly the straight line: say how many, never hide it.
     summary["planner_failures"] = len(getattr(routes, "failures", []))
@@ -333,6 +342,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--grace", type=float, default=0.0,
                     help="fly a mission that times out on, up to (1 + GRACE) x its budget, and report how the "
                          "timeouts end (late goals); outcomes are still judged at the budget (default 0: off)")
+    ap.add_argument("--trace", default=None,
+                    help="CSV with one row per decision of every mission flown (pose, waypoint, distance to the "
+                         "goal, clearance, action, whether the shield replaced it, the goal in sight, replans, "
+                         "outcome); with --matrix, cell and driver too. Use with --only (about 100 rows a mission)")
     a = ap.parse_args(argv)
     if a.matrix:
         return matrix_main(a)
@@ -341,11 +354,14 @@ def main(argv: list[str] | None = None) -> int:
         env = driver_env(meta, a)
         motion = env.motion
         only = parse_only(a)
+        trace: list[dict] | None = [] if a.trace else None
         summary, scs, res = evaluate(driver, a.scenario, a.episodes, a.seed, motion, a.planner,
                                      keep_tracks=a.episodes if a.failures else 9 if a.plot else 0,
                                      progress=not a.quiet, env=env,
                                      replan=a.replan == "on", grace=a.grace, only=only,
-                                     known_map=a.known_map == "on")
+                                     known_map=a.known_map == "on", trace=trace)
+        if trace is not None:
+            write_trace(trace, a.trace)
     except (ValueError, OSError, RuntimeError) as err:   # PolicyLoadError is a RuntimeError
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
@@ -424,9 +440,12 @@ def matrix_main(a: argparse.Namespace) -> int:
         only = parse_only(a)
         skip = {(r["cell"], r["driver"]) for r in old} | {(k, d) for k in range(len(cells)) if k not in wanted_cells
                                                           for d in drivers}
+        trace: list[dict] | None = [] if a.trace else None
         rows = mx.run_matrix(cells, drivers, a.episodes, a.seed, a.planner, env, progress=not a.quiet,
                              replan=a.replan == "on", skip=skip, grace=a.grace, failures=a.failures, only=only,
-                             known_map=a.known_map == "on")
+                             known_map=a.known_map == "on", trace=trace)
+        if trace is not None:
+            write_trace(trace, a.trace)
         order = {d: i for i, d in enumerate(["raw", "shield", "baseline"])}
         rows = sorted(rows + old, key=lambda r: (r["cell"], order.get(r["driver"], 9)))
     except (ValueError, OSError, RuntimeError) as err:

@@ -188,7 +188,8 @@ def load_matrix(spec: str) -> tuple[str, list[Condition]]:
 def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, planner: str = "rrt",
                env=None, progress: bool = False, replan: bool = False,
                skip: "set[tuple[int, str]] | frozenset" = frozenset(), grace: float = 0.0,
-               failures: str | None = None, only: "list[int] | None" = None, known_map: bool = True) -> list[dict]:
+               failures: str | None = None, only: "list[int] | None" = None, known_map: bool = True,
+               trace: list[dict] | None = None) -> list[dict]:
     """Every driver on the same ``episodes`` missions of every cell; one summary row per (cell, driver)
     not in ``skip`` (rows another run made, or cells another process runs).
 
@@ -198,7 +199,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     ``failures`` (a path prefix): each row lists its failed episodes (``failed``), and the tracks of a
     cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``. ``only``: just these
     missions of each cell (indices below ``episodes``), each the very mission of a full run.
-    ``known_map``: a shield keeps clear of each mission's known map too (``run_missions``)."""
+    ``known_map``: a shield keeps clear of each mission's known map too (``run_missions``). ``trace``:
+    a list that gets one row per decision of every mission flown, with its cell and driver."""
     from cage_sim.mission import EnvConfig
 
     from .evaluate import failed_episodes, plot_failures, replan_planner, run_missions, summarize
@@ -219,9 +221,12 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                     sc = sc.with_waypoints(wps)
             scs.append(sc)
         for dname, drv in todo.items():
+            flown: list[dict] | None = [] if trace is not None else None
             res = run_missions(drv, scs, env, keep_tracks=len(scs) if failures else 0, progress=progress,
                                replan=replan_planner(routes, replan), grace=grace, indices=indices,
-                               known_map=known_map)
+                               known_map=known_map, trace=flown)
+            if trace is not None:
+                trace += [{"cell": k, "driver": dname, **row} for row in flown]
             s = summarize(res, grace)
             if failures:
                 plot_failures(f"{failures}_cell{k}_{dname}.png", dict(zip(indices, scs)), res,
