@@ -4,7 +4,8 @@ Why: a failed mission in a matrix cell is understood decision by decision (which
 held, how near the goal was, when the shield took over, when a replan came, what the clearance
 was). Every such study so far began with a throwaway script that re-flew the mission by hand;
 ``evaluate --trace`` writes the rows from the evaluator's own loop instead, so the trace is the very
-flight the table counted (``--only`` picks the missions). Pure Python, no plotting.
+flight the table counted (``--only`` picks the missions). With ``--grace`` the rows go on past the
+budget to how the mission really ended (the table still judges it at the budget). Pure Python.
 """
 from __future__ import annotations
 
