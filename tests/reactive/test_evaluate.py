@@ -211,6 +211,7 @@ def test_cli_trace_is_the_flight_the_summary_counts(tmp_path):
     """``--trace``: one row per decision of every mission flown, in order; the last row of each
     carries its outcome (the summary's counts), the flagged rows are the shield's interventions, and
     re-flying the traced actions through a fresh mission gives the traced poses and outcome."""
+    import argparse
     import csv
     import math
 
@@ -230,7 +231,7 @@ def test_cli_trace_is_the_flight_the_summary_counts(tmp_path):
     assert all(r["outcome"] == "" for v in by.values() for r in v[:-1])
     assert sum(int(r["shielded"]) for r in rows) == s["shield_interventions"]
     _, _, meta = load_driver(None)
-    env = driver_env(meta, __import__("argparse").Namespace(motion=None, sensor=None))
+    env = driver_env(meta, argparse.Namespace(motion=None, sensor=None))
     for e, v in by.items():
         assert [int(r["decision"]) for r in v] == list(range(len(v)))
         m = Mission(episode_scenarios(spec, 1, seed, start=e)[0], env)

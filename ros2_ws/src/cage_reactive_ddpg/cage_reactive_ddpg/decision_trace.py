@@ -22,7 +22,8 @@ def decision_row(m, episode: int, action: float, shielded: bool) -> dict:
     """The row of mission ``m`` (a ``cage_sim.mission.Mission``) at the decision about to be flown with
     ``action``: the pose, the route's waypoint and goal as the judge's tracker holds them, the true
     clearance to the world as it is now (what the collision test measures), and whether the shield
-    replaced the driver's action. ``outcome`` is filled once the step is flown (``finish_row``)."""
+    replaced the driver's action. ``outcome`` is filled by the caller once the step is flown
+    (``goal``, ``collision``, ``wander``, ``timeout``: on the mission's last row)."""
     dist, err = m.waypoint()
     gx, gy = m.route[-1]
     return {"episode": episode, "decision": m.steps, "t": round(m.t, 3), "x": round(m.x, 4), "y": round(m.y, 4),
@@ -32,11 +33,6 @@ def decision_row(m, episode: int, action: float, shielded: bool) -> dict:
             "clearance": round(m.scene.clearance(m.x, m.y, m.t), 4), "action": float(action),
             "shielded": int(bool(shielded)), "goal_in_sight": int(m.tracker.sighted), "replans": m.replans,
             "outcome": ""}
-
-
-def finish_row(row: dict, outcome: str | None) -> None:
-    """The step's outcome (``goal``, ``collision``, ``wander``, ``timeout``) on the mission's last row."""
-    row["outcome"] = outcome or ""
 
 
 def write_trace(rows: list[dict], path: str | Path) -> None:

@@ -31,7 +31,7 @@ from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
 from tqdm import tqdm
 
-from .decision_trace import decision_row, finish_row, write_trace
+from .decision_trace import decision_row, write_trace
 from .missions import PLANNERS, WaypointFn, episode_scenarios, waypoint_fn
 
 
@@ -107,7 +107,7 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
                 row = decision_row(ms[i], index[lo + i], a, flag) if trace is not None else None
                 _, outcome = ms[i].step(float(np.clip(a, -1.0, 1.0)))
                 if row is not None:
-                    finish_row(row, outcome)
+                    row["outcome"] = outcome or ""
                     trace.append(row)
                 if outcome is None:
                     still.append(i)

@@ -16,8 +16,8 @@ Action server ``navigate`` (cage_planner_msgs/action/Navigate) and the RViz goal
 4. feedback (pose, distance to go, decisions, shield interventions, time) follows odometry and
    setpoints (the distance along the route as the judge's tracker measures it, the goal in sight
    across the known map included); the simulator's outcome on ``mission_event`` ends the goal:
-   SUCCEEDED for the goal, ABORTED for a collision, wander, timeout or planner failure. Cancel publishes the mission as
-   CANCELED: the vehicle holds station and the goal ends CANCELED.
+   SUCCEEDED for the goal, ABORTED for a collision, wander, timeout or planner failure. Cancel
+   publishes the mission as CANCELED: the vehicle holds station and the goal ends CANCELED.
 
 Where the rclpy in use has no actions, the node serves ``goal_pose`` alone and says so once.
 """
