@@ -9,7 +9,7 @@ import torch
 from cage_sim.controller import ArcController
 
 from cage_reactive_ddpg import config as config_mod
-from cage_reactive_ddpg.agent import DDPGAgent
+from cage_reactive_ddpg.agent import DDPGAgent, NearReturns
 from cage_reactive_ddpg.buffer import NStepFolder, ReplayBuffer
 from cage_reactive_ddpg.train import Trainer
 
@@ -51,6 +51,44 @@ def test_cloning_term_pulls_the_actor_to_the_expert(weight, moves, tiny_override
         after = float((agent.actor(obs) - 0.7).abs().mean())
     assert (after < 0.5 * before) == moves, (before, after)
     assert ("bc_loss" in info) == moves
+
+
+@pytest.mark.parametrize("near_weight, moves", [(0.0, False), (5.0, True)])
+def test_near_return_cloning_pulls_only_where_a_return_is_near(near_weight, moves, tiny_overrides):
+    """The unfiltered term acts on the rows whose first column (a range / max_range) is near, and
+    only there: with no other cloning (bc weight 0 this update) the far rows keep their actions."""
+    cfg = config_mod.build("fast", overrides={**tiny_overrides, "policy_delay": 1, "expert": "baseline",
+                                              "bc_weight": 1.0, "near_bc_weight": near_weight})
+    torch.manual_seed(0)
+    buf = _batch(256, 0.7)
+    buf.obs[:256, 0] = np.where(np.arange(256) % 2 == 0, 0.05, 0.9)      # even rows: a return 1 m off
+    near = NearReturns(cols=1, threshold=3.0 / 20.0)
+    agent, rng = DDPGAgent(cfg, 3, near=near), np.random.default_rng(1)
+    obs = torch.from_numpy(buf.obs[:256])
+    assert near(obs).tolist() == [i % 2 == 0 for i in range(256)]
+    for _ in range(800):
+        info = agent.update(buf.sample(rng, 64), 0.0)
+    with torch.no_grad():
+        err = (agent.actor(obs)[:, 0] - 0.7).abs()
+    near_err, far_err = float(err[0::2].mean()), float(err[1::2].mean())
+    assert (near_err < 0.5 * far_err) == moves, (near_err, far_err)
+    assert ("near_share" in info) == moves
+    if moves:
+        assert 0.2 < float(info["near_share"]) < 0.8
+
+
+def test_near_returns_counts_the_scan_and_the_memory_of_a_layout():
+    from cage_sim.observation import ObservationLayoutV2
+    from cage_sim.sonar import make_sonar
+    layout = ObservationLayoutV2.for_sonar(make_sonar("study"), velocity=True, memory_bins=8)
+    near = NearReturns.for_layout(layout, 3.0)
+    assert near.cols == 72 + 8 and near.threshold == pytest.approx(3.0 / layout.max_range)
+    far = np.ones((2, layout.size + 1), np.float32)        # + the residual's base action, last
+    far[1, 72 + 3] = 2.0 / layout.max_range                # a remembered return 2 m off
+    far[:, -1] = -1.0                                      # never read as a range
+    assert near(torch.from_numpy(far)).tolist() == [False, True]
+    with pytest.raises(ValueError, match="near_bc_weight"):
+        config_mod.build(overrides={"expert": "baseline", "near_bc_weight": -1.0})
 
 
 def test_q_filter_keeps_only_expert_actions_the_critic_rates_higher(tiny_overrides):

@@ -85,6 +85,8 @@ class TrainConfig:
     expert_pursuit: bool = False         # the expert (a residual policy's base) re-aims in one candidate (controller.py)
     expert_handover: float = 0.0         # m: the expert's rollouts stop being checked past an intermediate waypoint this near
     expert_handover_tail: int = 5        # ... after this many more decisions (controller.py, ``handover``)
+    near_bc_weight: float = 0.0          # cloning weight, unfiltered, where a return is within near_bc_range (agent.py)
+    near_bc_range: float = 3.0           # m: nearest return (scan or memory) that counts as near
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
     replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
     replay_max_tries: int = 3            # times one mission may be flown in all
@@ -140,6 +142,11 @@ class TrainConfig:
             raise ValueError(f"env_workers: must be between 1 and n_envs ({self.n_envs}), got {self.env_workers}")
         if self.bc_weight < 0:
             raise ValueError("bc_weight: must be >= 0")
+        if self.near_bc_weight < 0 or self.near_bc_range <= 0:
+            raise ValueError(f"near_bc_weight: must be >= 0, got {self.near_bc_weight!r}; "
+                             f"near_bc_range: > 0 m, got {self.near_bc_range!r}")
+        if self.near_bc_weight > 0 and not self.expert:
+            raise ValueError("near_bc_weight: needs an expert (the action it clones near returns)")
         if self.total_steps <= 0 and self.episodes <= 0:
             raise ValueError("total_steps or episodes must be > 0")
         self.actor_hidden = tuple(int(h) for h in self.actor_hidden)

@@ -36,7 +36,7 @@ from cage_sim.vec_env import CageNavVecEnv, finished
 from tqdm import tqdm
 
 from . import config as config_mod
-from .agent import DDPGAgent, GaussianNoise, OUNoise
+from .agent import DDPGAgent, GaussianNoise, NearReturns, OUNoise
 from .buffer import NStepFolder, ReplayBuffer
 from .config import TrainConfig
 from .evaluate import run_missions, summarize
@@ -150,7 +150,9 @@ class Trainer:
                                       replay=self.replay)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         obs_dim += int(cfg.residual)     # the base action, appended (with_base)
-        self.agent = DDPGAgent(cfg, obs_dim)
+        near = NearReturns.for_layout(self.env_cfg.layout, cfg.near_bc_range) \
+            if cfg.near_bc_weight > 0 and cfg.scenario != STUDY1D else None
+        self.agent = DDPGAgent(cfg, obs_dim, near=near)
         self.demo = np.zeros(cfg.n_envs, dtype=bool)
         self.buffer = ReplayBuffer(cfg.buffer_size, obs_dim)
         self.folder = NStepFolder(cfg.n_envs, cfg.n_step, cfg.gamma)
