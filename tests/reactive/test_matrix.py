@@ -153,3 +153,22 @@ def test_shield_rows_are_reused_only_with_the_same_known_map_setting(tmp_path, c
     assert "known_map is 'off' there, 'on' here" in capsys.readouterr().err
     assert main(args + ["--drivers", "baseline", "--known-map", "off", "--out", str(plain)]) == 0
     assert main(args + ["--drivers", "raw,baseline", "--reuse", str(plain.with_suffix(".json"))]) == 0
+
+
+def test_policy_rows_are_reused_only_for_the_policy_named(tmp_path, capsys):
+    """Raw and shield rows belong to one weights file: merged into a run of another policy (here the
+    default's, named by no --policy) they are refused, naming both; the baseline's rows are not."""
+    from cage_reactive_ddpg.policy import shipped_path
+    other = str(shipped_path().with_name("policy_near.safetensors"))
+    args = ["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--cells", "0", "--quiet"]
+    raw, merged = tmp_path / "raw", tmp_path / "merged"
+    assert main(args + ["--drivers", "raw,baseline", "--policy", other, "--out", str(raw)]) == 0
+    assert main(args + ["--drivers", "raw,baseline", "--reuse", str(raw.with_suffix(".json"))]) == 2
+    assert "policy_near.safetensors's" in capsys.readouterr().err
+    assert main(args + ["--drivers", "raw,baseline", "--policy", other, "--reuse", str(raw.with_suffix(".json")),
+                        "--out", str(merged)]) == 0                     # the same policy: merged
+    again = json.loads(merged.with_suffix(".json").read_text())
+    assert again["rows"] == json.loads(raw.with_suffix(".json").read_text())["rows"]
+    assert main(args + ["--drivers", "raw,baseline", "--policy", other, "--out", str(tmp_path / "m2"),
+                        "--reuse", str(merged.with_suffix(".json"))]) == 0   # a merged file names it too
+

@@ -103,9 +103,11 @@ def open_water(pol, errors) -> np.ndarray:
                                                           10.0, e, (1.0, 0.0)) for e in errors])
 
 
-def test_shipped_policy_loads_and_acts():
-    assert shipped_path().is_file(), "the package must ship weights/policy.safetensors"
-    pol = load_policy()
+@pytest.mark.parametrize("name", ["policy", "policy_near"])
+def test_shipped_policy_loads_and_acts(name):
+    path = shipped_path().with_name(f"{name}.safetensors")
+    assert path.is_file(), f"the package must ship weights/{name}.safetensors"
+    pol = load_policy(path)
     obs = open_water(pol, [0.5 * math.pi, 0.0, -0.5 * math.pi])   # waypoint to the left, ahead, to the right
     a = pol.act(obs)
     assert a.shape == (3, 1) and np.all(np.abs(a) <= 1.0)
@@ -174,10 +176,11 @@ def test_policy_for_another_sensor_profile_is_refused_naming_it(saved):
     assert load_policy(wpath, profile="fls").profile == "fls"
 
 
-def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_ahead():
+@pytest.mark.parametrize("name", ["policy", "policy_near"])
+def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_ahead(name):
     from cage_sim.controller import ArcController
     from cage_sim.shield import SafetyShield
-    pol = load_policy()
+    pol = load_policy(shipped_path().with_name(f"{name}.safetensors"))
     obs = open_water(pol, [0.0])[0]
     assert SafetyShield(pol, ArcController(pol.layout)).act(obs)[0] == 0.0
     assert abs(pol.act(obs)[0]) < 0.3            # the raw policy alone: within 6 deg of straight

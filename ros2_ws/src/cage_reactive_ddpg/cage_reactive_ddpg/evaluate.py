@@ -391,9 +391,19 @@ def parse_only(a: argparse.Namespace) -> list[int] | None:
     return sorted(parse_cells(a.only, a.episodes, "--only", "the missions of --episodes"))
 
 
+def _policy_flown(recorded: str | None) -> str:
+    """The weights file a matrix file's policy rows came from, as a resolved path: the ``policy``
+    key without what a merge adds (`` (rows of ...)``); "shipped policy" is the package's default."""
+    from .policy import shipped_path
+    text = (recorded or "shipped policy").split(" (rows of ")[0]
+    return str((shipped_path() if text == "shipped policy" else Path(text)).resolve())
+
+
 def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observation: dict) -> list[dict]:
     """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked.
-    The observation layout is checked where the file records it (files before session 25 do not)."""
+    The observation layout is checked where the file records it (files before session 25 do not).
+    A file with raw or shield rows must name the policy named here: merged without ``--policy``,
+    another policy's rows once went out under the default's name (session 48)."""
     unrecorded = {"replan": "off", "observation": observation,    # what a file too old to record the key ran with
                   "known_map": "off"}
     rows: list[dict] = []
@@ -406,6 +416,10 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observat
         for key, mine in keys:
             if old.get(key, unrecorded.get(key)) != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
+        if any(r["driver"] != "baseline" for r in old["rows"]) and \
+                _policy_flown(old.get("policy")) != _policy_flown(a.policy):
+            raise ValueError(f"--reuse {path}: its policy rows are {_policy_flown(old.get('policy'))}'s, "
+                             f"this run's policy is {_policy_flown(a.policy)} (name it with --policy)")
         have = {(r["cell"], r["driver"]) for r in rows}
         rows += [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
     return rows
