@@ -1,5 +1,7 @@
 """Sea conditions and the evaluation matrix: cells draw what they say, the CLI writes its tables."""
 import json
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -171,4 +173,13 @@ def test_policy_rows_are_reused_only_for_the_policy_named(tmp_path, capsys):
     assert again["rows"] == json.loads(raw.with_suffix(".json").read_text())["rows"]
     assert main(args + ["--drivers", "raw,baseline", "--policy", other, "--out", str(tmp_path / "m2"),
                         "--reuse", str(merged.with_suffix(".json"))]) == 0   # a merged file names it too
+    copy = tmp_path / "copy.safetensors"                 # the same weights elsewhere (a run folder's)
+    copy.write_bytes(Path(other).read_bytes())
+    shutil.copy(Path(other).with_suffix(".json"), copy.with_suffix(".json"))
+    assert main(args + ["--drivers", "raw", "--policy", str(copy), "--out", str(tmp_path / "m3"),
+                        "--reuse", str(raw.with_suffix(".json"))]) == 0
+    shipped = tmp_path / "shipped"               # the default's raw rows, first: the other file's are not taken
+    assert main(args + ["--drivers", "raw", "--out", str(shipped)]) == 0
+    assert main(args + ["--drivers", "raw,baseline", "--out", str(tmp_path / "m4"),
+                        "--reuse", f"{shipped.with_suffix('.json')},{raw.with_suffix('.json')}"]) == 0
 

@@ -187,6 +187,7 @@ def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_a
 
 
 @pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_mb360", "multibeam360"),
+                                           ("policy_mb360_near", "multibeam360"),
                                            ("policy_scanning", "scanning")])
 def test_shipped_profile_policy_is_for_its_profile_only(name, profile):
     from cage_reactive_ddpg.policy import env_config_for

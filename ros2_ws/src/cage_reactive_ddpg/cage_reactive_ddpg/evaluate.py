@@ -14,6 +14,7 @@ a markdown table, a CSV and a JSON (``--out`` prefix) and a PNG (``--plot``), wi
 from __future__ import annotations
 
 import argparse
+import filecmp
 import json
 import math
 import sys
@@ -399,11 +400,19 @@ def _policy_flown(recorded: str | None) -> str:
     return str((shipped_path() if text == "shipped policy" else Path(text)).resolve())
 
 
+def _same_weights(a: str, b: str) -> bool:
+    """The same path, or two files with the same bytes (weights copied from a run folder into
+    ``weights/`` after their matrix ran)."""
+    pa, pb = Path(a), Path(b)
+    return a == b or (pa.is_file() and pb.is_file() and filecmp.cmp(pa, pb, shallow=False))
+
+
 def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observation: dict) -> list[dict]:
     """Rows of earlier runs of the same matrix on the same missions (``--reuse A.json[,B.json]``), checked.
     The observation layout is checked where the file records it (files before session 25 do not).
-    A file with raw or shield rows must name the policy named here: merged without ``--policy``,
-    another policy's rows once went out under the default's name (session 48)."""
+    Raw or shield rows taken from a file must be the policy's named here (the same weights file,
+    or its bytes): merged without ``--policy``, another policy's rows once went out under the
+    default's name (session 48). A file's rows for cells and drivers already taken are skipped."""
     unrecorded = {"replan": "off", "observation": observation,    # what a file too old to record the key ran with
                   "known_map": "off"}
     rows: list[dict] = []
@@ -416,12 +425,13 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observat
         for key, mine in keys:
             if old.get(key, unrecorded.get(key)) != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
-        if any(r["driver"] != "baseline" for r in old["rows"]) and \
-                _policy_flown(old.get("policy")) != _policy_flown(a.policy):
-            raise ValueError(f"--reuse {path}: its policy rows are {_policy_flown(old.get('policy'))}'s, "
-                             f"this run's policy is {_policy_flown(a.policy)} (name it with --policy)")
         have = {(r["cell"], r["driver"]) for r in rows}
-        rows += [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
+        taken = [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
+        theirs, mine = _policy_flown(old.get("policy")), _policy_flown(a.policy)
+        if any(r["driver"] != "baseline" for r in taken) and not _same_weights(theirs, mine):
+            raise ValueError(f"--reuse {path}: its policy rows are {theirs}'s, this run's policy is {mine} "
+                             f"(name it with --policy)")
+        rows += taken
     return rows
 
 
