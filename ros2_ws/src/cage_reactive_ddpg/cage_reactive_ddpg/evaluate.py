@@ -392,12 +392,18 @@ def parse_only(a: argparse.Namespace) -> list[int] | None:
     return sorted(parse_cells(a.only, a.episodes, "--only", "the missions of --episodes"))
 
 
+# A matrix file's ``policy`` key: the --policy named, or SHIPPED_LABEL, then what a merge adds
+# (MERGED_FROM ...). Written by ``matrix_main``, read back by ``_policy_flown``.
+SHIPPED_LABEL = "shipped policy"
+MERGED_FROM = " (rows of "
+
+
 def _policy_flown(recorded: str | None) -> str:
     """The weights file a matrix file's policy rows came from, as a resolved path: the ``policy``
-    key without what a merge adds (`` (rows of ...)``); "shipped policy" is the package's default."""
+    key without what a merge adds; ``SHIPPED_LABEL`` is the package's default."""
     from .policy import shipped_path
-    text = (recorded or "shipped policy").split(" (rows of ")[0]
-    return str((shipped_path() if text == "shipped policy" else Path(text)).resolve())
+    text = (recorded or SHIPPED_LABEL).split(MERGED_FROM)[0]
+    return str((shipped_path() if text == SHIPPED_LABEL else Path(text)).resolve())
 
 
 def _same_weights(a: str, b: str) -> bool:
@@ -477,9 +483,9 @@ def matrix_main(a: argparse.Namespace) -> int:
         return 2
     prefix = Path(a.out or f"out/matrix_{name}")
     prefix.parent.mkdir(parents=True, exist_ok=True)
-    policy = str(a.policy or "shipped policy")
+    policy = str(a.policy or SHIPPED_LABEL)
     if a.reuse:
-        policy += f" (rows of {sorted({r['driver'] for r in old})} from {a.reuse})"
+        policy += f"{MERGED_FROM}{sorted({r['driver'] for r in old})} from {a.reuse})"
     per_cell = f"missions {a.only} of {a.episodes}" if only else f"{a.episodes} missions"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {per_cell} per cell, seed {a.seed}, "
              f"planner {a.planner}, replan {a.replan}, known map {a.known_map}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
