@@ -186,9 +186,10 @@ def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_a
     assert abs(pol.act(obs)[0]) < 0.3            # the raw policy alone: within 6 deg of straight
 
 
-@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_mb360", "multibeam360"),
+@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_fls_near", "fls"),
+                                           ("policy_mb360", "multibeam360"),
                                            ("policy_mb360_near", "multibeam360"),
-                                           ("policy_scanning", "scanning")])
+                                           ("policy_scanning", "scanning"), ("policy_scanning_near", "scanning")])
 def test_shipped_profile_policy_is_for_its_profile_only(name, profile):
     from cage_reactive_ddpg.policy import env_config_for
     path = shipped_path().with_name(f"{name}.safetensors")
