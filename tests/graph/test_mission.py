@@ -49,7 +49,8 @@ CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varyi
 
 @pytest.mark.parametrize("weights, sensor", [(FLS, "fls"), (FLS.with_name("policy_mb360.safetensors"), "multibeam360"),
                                              (FLS.with_name("policy_mb360_cone5.safetensors"), ""),
-                                             (FLS.with_name("policy_scanning.safetensors"), "scanning")])
+                                             (FLS.with_name("policy_scanning.safetensors"), "scanning"),
+                                             (FLS.with_name("policy_scanning_near.safetensors"), "scanning")])
 def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path, weights, sensor):
     """A v2 policy (its profile's scan and/or memory + DVL velocity) behind the shield, sim_node sensor:=
     its profile, in a current: same outcome, same decisions, final pose within 1e-6 m of the offline
