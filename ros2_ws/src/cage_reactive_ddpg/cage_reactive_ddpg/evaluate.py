@@ -422,6 +422,7 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observat
     unrecorded = {"replan": "off", "observation": observation,    # what a file too old to record the key ran with
                   "known_map": "off"}
     rows: list[dict] = []
+    flying = _policy_flown(a.policy)                             # this run's weights, resolved once
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
         keys = [("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
@@ -433,9 +434,9 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observat
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
         have = {(r["cell"], r["driver"]) for r in rows}
         taken = [r for r in old["rows"] if (r["cell"], r["driver"]) not in have]
-        theirs, mine = _policy_flown(old.get("policy")), _policy_flown(a.policy)
-        if any(r["driver"] != "baseline" for r in taken) and not _same_weights(theirs, mine):
-            raise ValueError(f"--reuse {path}: its policy rows are {theirs}'s, this run's policy is {mine} "
+        theirs = _policy_flown(old.get("policy"))
+        if any(r["driver"] != "baseline" for r in taken) and not _same_weights(theirs, flying):
+            raise ValueError(f"--reuse {path}: its policy rows are {theirs}'s, this run's policy is {flying} "
                              f"(name it with --policy)")
         rows += taken
     return rows
