@@ -19,6 +19,7 @@
 #
 # --sensor (study | multibeam360 | fls | scanning) is the sim_node's sonar profile and the profile the
 # policy_node checks the policy against (a policy of another profile is refused: exit 70 naming both);
+# with no --policy, that profile's shipped driver flies (cage_reactive_ddpg.policy.DRIVERS);
 # --sim-param passes a sim_node parameter, e.g. a sensor override (--sim-param noise_std:=0.0); a policy
 # file's recorded sonar (profile, n_beams, max_range, beam_width_deg) goes to sim_node unless set here;
 # --rrt-param passes an rrt_node parameter (--rrt-param obstacle_layer:=true, --rrt-param planner:=optimal);
@@ -128,6 +129,15 @@ trap 'on_signal INT 130' INT
 trap 'on_signal TERM 143' TERM
 trap 'on_signal HUP 129' HUP
 
+# --sensor alone: the profile's shipped driver, named as its file so sim_node scans as it learnt (below)
+if [ -z "$policy" ] && [ -n "$sensor" ]; then
+  policy=$("$py" -c 'import sys
+from cage_reactive_ddpg.policy import PolicyLoadError, shipped_path
+try:
+    print(shipped_path(sys.argv[1]))
+except PolicyLoadError:
+    pass   # not a profile: policy_node names the bad sensor' "$sensor")
+fi
 echo "[run_mission] scenario=$scenario seed=$seed policy=${policy:-shipped} ROS_DOMAIN_ID=$ROS_DOMAIN_ID time_scale=$time_scale ns=$ns"
 policy_args=()
 [ -n "$policy" ] && policy_args=(-p "policy:=$policy")

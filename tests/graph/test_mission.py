@@ -50,7 +50,7 @@ CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varyi
 @pytest.mark.parametrize("weights, sensor", [(FLS, "fls"), (FLS.with_name("policy_mb360.safetensors"), "multibeam360"),
                                              (FLS.with_name("policy_mb360_cone5.safetensors"), ""),
                                              (FLS.with_name("policy_scanning.safetensors"), "scanning"),
-                                             (FLS.with_name("policy_scanning_near.safetensors"), "scanning")])
+                                             (None, "scanning")])
 def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path, weights, sensor):
     """A v2 policy (its profile's scan and/or memory + DVL velocity) behind the shield, sim_node sensor:=
     its profile, in a current: same outcome, same decisions, final pose within 1e-6 m of the offline
@@ -59,15 +59,18 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
     alone, so this also checks that policy_node places each beam of a sweep where the head fired it.
     ``policy_mb360_cone5`` learnt on the 5 deg beams multibeam360 had until session 40, and is run
     without ``--sensor``: run_mission.sh gives sim_node the profile and beams its file records, so
-    the graph scans as the evaluator does."""
+    the graph scans as the evaluator does. No file (``None``): ``--sensor scanning`` alone flies that
+    profile's shipped driver (``policy.DRIVERS``: ``policy_scanning_near``) on both sides."""
     from dataclasses import replace
     from cage_reactive_ddpg.policy import env_config_for
     from cage_sim.sonar import make_sonar
-    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(weights), "--sensor", sensor,
+    named = ["--policy", str(weights)] if weights else []
+    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), *named, "--sensor", sensor,
                                  "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0", "--timeout", "120",
                                  "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
     assert result is not None, log
-    driver, _, meta = load_driver(str(weights), sensor=sensor or None)
+    driver, _, meta = load_driver(str(weights) if weights else None, sensor=sensor or None)
+    assert weights or "policy_scanning_near.safetensors loaded" in (tmp_path / "logs" / "policy_node.log").read_text()
     config = replace(env_config_for(meta), sonar=make_sonar(env_config_for(meta).sonar, noise_std=0.0, dropout=0.0))
     ep = offline(driver, CURRENT, 1, config)
     assert ep.outcome == "goal" and ep.steps > 30          # a real mission, drifting 0.25 m/s

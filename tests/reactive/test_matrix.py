@@ -132,6 +132,24 @@ def test_the_baseline_reads_the_policys_observation_whichever_drivers_run(tmp_pa
     assert load(fls)["sensor"] == "fls" and load(fls)["observation"] != a["observation"]
 
 
+def test_a_sensor_with_no_policy_flies_that_profiles_shipped_driver(tmp_path, capsys):
+    """``--sensor fls`` and no ``--policy``: the raw rows are the fls driver's (``policy.DRIVERS``),
+    and the file names its weights, so they merge only with rows of that file."""
+    from cage_reactive_ddpg.policy import shipped_path
+    args = ["--matrix", "tiny", "--episodes", "2", "--seed", "5", "--cells", "0", "--quiet", "--drivers", "raw"]
+    by_sensor, by_file = tmp_path / "by_sensor", tmp_path / "by_file"
+    assert main(args + ["--sensor", "fls", "--out", str(by_sensor)]) == 0
+    assert main(args + ["--policy", str(shipped_path("fls")), "--out", str(by_file)]) == 0
+    load = lambda p: json.loads(p.with_suffix(".json").read_text())  # noqa: E731
+    assert load(by_sensor)["sensor"] == "fls" and load(by_sensor)["rows"] == load(by_file)["rows"]
+    assert load(by_sensor)["policy"] == str(shipped_path("fls"))
+    reuse = ["--reuse", str(by_sensor.with_suffix(".json")), "--out", str(tmp_path / "m")]
+    assert main(args + reuse + ["--sensor", "fls"]) == 0             # the same driver: merged
+    near = str(shipped_path("fls").with_name("policy_fls_near.safetensors"))
+    assert main(args + reuse + ["--policy", near]) == 2              # another fls policy: refused, named
+    assert "policy_fls.safetensors's" in capsys.readouterr().err
+
+
 def test_markdown_of_merged_parts_marks_a_missing_driver_row():
     """Rows merged from parts (``--reuse``) may hold a driver in some cells only: the table shows
     '-' there instead of failing."""

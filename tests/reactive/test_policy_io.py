@@ -186,6 +186,20 @@ def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_a
     assert abs(pol.act(obs)[0]) < 0.3            # the raw policy alone: within 6 deg of straight
 
 
+def test_each_profile_has_a_shipped_driver_loaded_when_no_file_is_named():
+    """``load_policy(profile=...)`` with no file (``policy_node sensor:=fls``, ``evaluate --sensor``):
+    that profile's driver from ``DRIVERS``, one per sonar profile; an unknown profile names the known."""
+    from cage_reactive_ddpg.policy import DRIVERS
+    from cage_sim.sonar import PROFILE_NAMES
+    assert sorted(DRIVERS) == sorted(PROFILE_NAMES)
+    for profile, name in DRIVERS.items():
+        pol = load_policy(profile=profile)
+        assert pol.path.name == name and pol.profile == profile
+    assert load_policy().path == load_policy(profile="study").path == shipped_path()
+    with pytest.raises(PolicyLoadError, match="no shipped policy for sensor profile 'sidescan'.*fls"):
+        load_policy(profile="sidescan")
+
+
 @pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_fls_near", "fls"),
                                            ("policy_mb360", "multibeam360"),
                                            ("policy_mb360_near", "multibeam360"),

@@ -327,7 +327,9 @@ def main(argv: list[str] | None = None) -> int:
                          "cell run (use --cells); --plot then shows their tracks")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--sensor", default=None,
-                    help="sonar profile for the baseline alone (a policy uses the one it was trained with)")
+                    help="sonar profile: with no --policy, the profile's shipped driver flies (policy.DRIVERS), "
+                         "and the baseline alone reads that profile's scan; a policy file must be of this profile "
+                         "(else refused, naming both; without --sensor it uses the one it was trained with)")
     ap.add_argument("--matrix", default=None, help="sea-condition matrix: a name (sea, sea_small, tiny, strong) or a YAML file")
     ap.add_argument("--drivers", default="raw,shield,baseline",
                     help="with --matrix: which of raw, shield, baseline to run (comma-separated)")
@@ -451,6 +453,9 @@ def matrix_main(a: argparse.Namespace) -> int:
         bad = sorted(set(wanted) - {"raw", "shield", "baseline"})
         if bad:
             raise ValueError(f"--drivers: unknown {bad} (raw, shield, baseline)")
+        if a.policy is None and a.sensor not in (None, "study") and set(wanted) - {"baseline"}:
+            from .policy import shipped_path
+            a.policy = str(shipped_path(a.sensor))   # the profile's driver, named so in the files (and --reuse)
         drivers, meta = {}, None
         for d in wanted:
             if d != "baseline":

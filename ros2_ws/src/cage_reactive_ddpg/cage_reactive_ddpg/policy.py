@@ -35,6 +35,11 @@ if TYPE_CHECKING:   # the trainer's side only; loading a policy never imports to
 
 FORMAT = "cage_reactive_ddpg/policy-v1"
 SHIPPED = "policy.safetensors"
+# Each sensor profile's shipped driver: the weights file flown for that profile when none is named
+# (``policy_node`` with ``sensor:=`` alone, ``run_mission.sh --sensor``, ``evaluate --sensor``). The
+# one place that says which of a profile's shipped files is its driver; README "Shipped policies" says why.
+DRIVERS = {"study": SHIPPED, "fls": "policy_fls.safetensors", "multibeam360": "policy_mb360.safetensors",
+           "scanning": "policy_scanning_near.safetensors"}
 
 
 class PolicyLoadError(RuntimeError):
@@ -137,8 +142,12 @@ class LoadedPolicy:
         return math.radians(self.metadata["action"]["max_turn_deg"])
 
 
-def shipped_path() -> Path:
-    return Path(str(resources.files("cage_reactive_ddpg") / "weights" / SHIPPED))
+def shipped_path(profile: str | None = None) -> Path:
+    """The shipped driver's weights for a sensor profile (``DRIVERS``; None: the default, ``study``).
+    An unknown profile raises ``PolicyLoadError`` naming the known ones."""
+    if profile is not None and profile not in DRIVERS:
+        raise PolicyLoadError(f"no shipped policy for sensor profile {profile!r} (shipped: {', '.join(DRIVERS)})")
+    return Path(str(resources.files("cage_reactive_ddpg") / "weights" / DRIVERS[profile or "study"]))
 
 
 def profile_of(meta: dict) -> str:
@@ -185,13 +194,14 @@ def env_config_for(meta: dict, motion: str | None = None):
 
 def load_policy(path: str | Path | None = None, layout: ObservationLayout | None = None,
                 vehicle: VehicleParams | None = None, profile: str | None = None) -> LoadedPolicy:
-    """Load a policy (default: the shipped one) and check it against this build's layout and vehicle.
+    """Load a policy and check it against this build's layout and vehicle. No ``path``: the shipped
+    driver of ``profile`` (``shipped_path``), the default one without a profile.
 
     ``layout``: the observation layout the caller will build (default: the one the file records, v1
     or v2); ``profile``: the sensor profile the caller runs; a policy trained for another is refused,
     naming both.
     """
-    wpath, mpath = paths(path if path is not None else shipped_path())
+    wpath, mpath = paths(path if path is not None else shipped_path(profile))
     vehicle = vehicle or VehicleParams()
     for p, what in ((wpath, "weights"), (mpath, "metadata")):
         if not p.is_file():

@@ -1,8 +1,9 @@
 """policy_node: scan + pose + plan -> next waypoint -> heading setpoint, one decision per metre.
 
 Builds the observation with the same layout, route tracker and vehicle facts as the offline env, and
-asks the same policy (the shipped DDPG weights by default, a file from the ``policy`` parameter, or
-``baseline`` for the classical controller), so a seeded mission ends in the graph as it does offline.
+asks the same policy (a file from the ``policy`` parameter, ``baseline`` for the classical controller,
+or by default the shipped DDPG weights: the driver of the ``sensor`` profile when one is named,
+``policy.DRIVERS``), so a seeded mission ends in the graph as it does offline.
 A learned policy runs behind the safety shield (``cage_sim.shield``; parameter ``shield``, default
 on), as it does in the evaluator by default.
 
@@ -57,11 +58,12 @@ RUNTIME = ("shield", "known_map", *SHIELD_OPTIONS)   # what ``ros2 param set`` m
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def trained_layout(spec: str | None):
-    """The observation layout of the policy file's training config (``env_config_for``), or None
-    when the metadata cannot say (``load_policy`` then names what is wrong with the file)."""
+def trained_layout(spec: str | None, profile: str | None = None):
+    """The observation layout of the policy file's training config (``env_config_for``; no file:
+    ``profile``'s shipped driver), or None when the metadata cannot say (``load_policy`` then names
+    what is wrong with the file)."""
     try:
-        meta = json.loads(paths(spec if spec is not None else shipped_path())[1].read_text())
+        meta = json.loads(paths(spec if spec is not None else shipped_path(profile))[1].read_text())
         return env_config_for(meta).layout if isinstance(meta, dict) else None
     except Exception:   # noqa: BLE001 - any malformed file is load_policy's to report
         return None
@@ -189,7 +191,7 @@ class PolicyNode(Node):
         try:
             # the layout the policy's training config builds, so a file whose recorded layout differs
             # from it is refused naming the field (not by an opaque network size)
-            pol = load_policy(spec or None, trained_layout(spec or None), self.vehicle, profile=sensor)
+            pol = load_policy(spec or None, trained_layout(spec or None, sensor), self.vehicle, profile=sensor)
             env = env_config_for(pol.metadata)
         except PolicyLoadError as err:
             raise ValueError(str(err)) from None
