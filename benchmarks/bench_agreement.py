@@ -90,7 +90,7 @@ def main() -> None:
     ap.add_argument("--missions", type=int, default=100)
     ap.add_argument("--scenario", default="cage")
     ap.add_argument("--first-seed", type=int, default=0)
-    ap.add_argument("--policy", default="", help="policy file, 'baseline', or empty for the shipped weights")
+    ap.add_argument("--policy", default="", help="policy file, 'baseline', or empty for the shipped weights (--sensor's driver, policy.DRIVERS)")
     ap.add_argument("--time-scale", type=float, default=100.0)
     ap.add_argument("--sensor", default="", help="sonar profile (default: the policy's; study for the baseline)")
     ap.add_argument("--shield", default="on", choices=["on", "off"], help="off: the raw learned policy")

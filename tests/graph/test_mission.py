@@ -60,9 +60,9 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
     ``policy_mb360_cone5`` learnt on the 5 deg beams multibeam360 had until session 40, and is run
     without ``--sensor``: run_mission.sh gives sim_node the profile and beams its file records, so
     the graph scans as the evaluator does. No file (``None``): ``--sensor scanning`` alone flies that
-    profile's shipped driver (``policy.DRIVERS``: ``policy_scanning_near``) on both sides."""
+    profile's shipped driver (``policy.DRIVERS``) on both sides."""
     from dataclasses import replace
-    from cage_reactive_ddpg.policy import env_config_for
+    from cage_reactive_ddpg.policy import env_config_for, shipped_path
     from cage_sim.sonar import make_sonar
     named = ["--policy", str(weights)] if weights else []
     rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), *named, "--sensor", sensor,
@@ -70,7 +70,7 @@ def test_profile_policy_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_p
                                  "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
     assert result is not None, log
     driver, _, meta = load_driver(str(weights) if weights else None, sensor=sensor or None)
-    assert weights or "policy_scanning_near.safetensors loaded" in (tmp_path / "logs" / "policy_node.log").read_text()
+    assert weights or f"{shipped_path('scanning').name} loaded" in (tmp_path / "logs" / "policy_node.log").read_text()
     config = replace(env_config_for(meta), sonar=make_sonar(env_config_for(meta).sonar, noise_std=0.0, dropout=0.0))
     ep = offline(driver, CURRENT, 1, config)
     assert ep.outcome == "goal" and ep.steps > 30          # a real mission, drifting 0.25 m/s

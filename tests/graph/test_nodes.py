@@ -96,8 +96,10 @@ def test_policy_node_refuses_mismatched_weights(launch, tmp_path):
 def test_policy_node_with_a_sensor_alone_loads_that_profiles_driver(launch, probe):
     """``sensor:=fls`` and no ``policy``: the fls profile's shipped driver (``policy.DRIVERS``), where
     before session 50 the default study policy was loaded and refused; a bad profile: exit 2, named."""
+    from cage_reactive_ddpg.policy import shipped_path
     node = launch("cage_reactive_ddpg", "policy_node", "-p", "sensor:=fls")
-    assert probe.until(lambda: "policy_fls.safetensors loaded (sensor 'fls'" in node.output, 30), node.output
+    loaded = f"{shipped_path('fls').name} loaded (sensor 'fls'"
+    assert probe.until(lambda: loaded in node.output, 30), node.output
     bad = launch("cage_reactive_ddpg", "policy_node", "-p", "sensor:=sidescan")
     assert bad.proc.wait(timeout=30) == 2
     assert "sidescan" in bad.output and "Traceback" not in node.output + bad.output
