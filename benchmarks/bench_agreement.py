@@ -116,7 +116,8 @@ def main() -> None:
     o_counts = Counter(o.outcome for o in offline)
     same_outcome = sum(g["outcome"] == o.outcome for g, o in zip(graph, offline))
     same_steps = sum(g["outcome"] == o.outcome and g["steps"] == o.steps for g, o in zip(graph, offline))
-    print(f"\n{n} missions of '{args.scenario}', policy {args.policy or 'shipped'}, sensor "
+    shipped = f"shipped ({args.sensor}'s driver)" if args.sensor else "shipped"
+    print(f"\n{n} missions of '{args.scenario}', policy {args.policy or shipped}, sensor "
           f"{args.sensor or 'the policy s'}, shield {args.shield}, sonar noise {args.noise}")
     print(f"{'outcome':10s} {'graph %':>8s} {'offline %':>10s} {'diff (points)':>14s}")
     diffs = {}
