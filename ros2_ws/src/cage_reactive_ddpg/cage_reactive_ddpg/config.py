@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -90,6 +91,9 @@ class TrainConfig:
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
     replay_fraction: float = 0.0         # share of new episodes that re-fly a failed mission
     replay_max_tries: int = 3            # times one mission may be flown in all
+    # --- the shield in the loop (off = the actor's actions are flown as they are; driver.ShieldFilter) ---
+    shield_in_loop: bool = False         # every action passes the evaluator's safety shield before it is flown
+    shield_penalty: float = 0.0          # reward taken off a step whose action the shield replaced
     # --- logging ------------------------------------------------------------------------
     eval_every: int = 0                  # env steps between evaluations (0 = only at the end)
     eval_episodes: int = 100
@@ -147,6 +151,13 @@ class TrainConfig:
                              f"near_bc_range: > 0 m, got {self.near_bc_range!r}")
         if self.near_bc_weight > 0 and not self.expert:
             raise ValueError("near_bc_weight: needs an expert (the action it clones near returns)")
+        if not (self.shield_penalty >= 0 and math.isfinite(self.shield_penalty)):
+            raise ValueError(f"shield_penalty: must be a finite number >= 0, got {self.shield_penalty!r}")
+        if self.shield_penalty > 0 and not self.shield_in_loop:
+            raise ValueError("shield_penalty: needs shield_in_loop: true (the overrides it charges)")
+        if self.shield_in_loop and (self.motion != "continuous" or self.scenario == "study1d"):
+            raise ValueError("shield_in_loop: needs motion: continuous on cage missions (the shield's rollouts "
+                             f"are of that vehicle), got motion {self.motion!r}, scenario {self.scenario!r}")
         if self.total_steps <= 0 and self.episodes <= 0:
             raise ValueError("total_steps or episodes must be > 0")
         self.actor_hidden = tuple(int(h) for h in self.actor_hidden)

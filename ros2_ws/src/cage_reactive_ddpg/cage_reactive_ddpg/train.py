@@ -30,8 +30,9 @@ from typing import Any, Callable
 import numpy as np
 import torch
 from cage_sim.controller import ArcController
-from cage_sim.driver import FlownLabeller, ObservationLabeller
+from cage_sim.driver import FlownLabeller, ObservationLabeller, ShieldFilter, fallback_for
 from cage_sim.process_vec_env import ProcessVecEnv
+from cage_sim.shield import SafetyShield
 from cage_sim.vec_env import CageNavVecEnv, finished
 from tqdm import tqdm
 
@@ -47,7 +48,7 @@ from .policy import save_policy
 from .study1d import STUDY1D, Study1DVecEnv, evaluate_1d
 
 EVAL_SEED = 987_654      # evaluation episodes during training (disjoint from the reported seeds)
-CSV_FIELDS = ["episode", "step", "reward", "length", "outcome", "success", "seconds", "demo"]
+CSV_FIELDS = ["episode", "step", "reward", "length", "outcome", "success", "seconds", "demo", "shielded"]
 ARTIFACTS = ("policy.safetensors", "policy.json", "best.safetensors", "best.json", "episodes.csv",
              "learning_curve.png", "tb", "checkpoint.pt", "buffer.npz", "config.yaml")
 LOG_EVERY = 2000         # env steps between TensorBoard's rollout/time/train scalars
@@ -138,16 +139,22 @@ class Trainer:
             if cfg.expert else None
         self.labeller = None if self.expert is None else \
             (FlownLabeller if cfg.expert == "flown" else ObservationLabeller)(self.expert)
+        # The shield in the loop: every action passes the shield the evaluator flies, with the
+        # fallback the evaluator gives this policy (a residual actor's base, else the default controller).
+        self.shield = ShieldFilter(self.expert if cfg.residual else
+                                   ArcController(self.env_cfg.layout, self.env_cfg.vehicle)) \
+            if cfg.shield_in_loop else None
         if cfg.scenario == STUDY1D:
             self.envs = Study1DVecEnv(cfg.n_envs, seed=cfg.seed)
             obs_dim = 1
         elif cfg.env_workers > 1:   # the envs and the expert's rollouts in worker processes (labels come back)
             self.envs = ProcessVecEnv(cfg.n_envs, cfg.env_workers, sampler(cfg.scenario), self.env_cfg, self.wp_fn,
-                                      seed=cfg.seed, labeller=self.labeller, replay=self.replay)
+                                      seed=cfg.seed, labeller=self.labeller, replay=self.replay,
+                                      action_filter=self.shield)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         else:
             self.envs = CageNavVecEnv(cfg.n_envs, sampler(cfg.scenario), self.env_cfg, self.wp_fn, seed=cfg.seed,
-                                      replay=self.replay)
+                                      replay=self.replay, action_filter=self.shield)
             obs_dim = int(self.envs.single_observation_space.shape[0])
         obs_dim += int(cfg.residual)     # the base action, appended (with_base)
         near = NearReturns.for_layout(self.env_cfg.layout, cfg.near_bc_range) \
@@ -224,7 +231,7 @@ class Trainer:
         log.writerows(self.rows)
         obs, infos0 = _reset(self.envs)
         labels, _ = self._labels(obs, infos0)
-        ep_ret, ep_len = np.zeros(c.n_envs), np.zeros(c.n_envs, int)
+        ep_ret, ep_len, ep_shielded = np.zeros(c.n_envs), np.zeros(c.n_envs, int), np.zeros(c.n_envs, int)
         recent = deque(self.rows[-c.moving_average:], maxlen=c.moving_average)
         pending = 0.0
         info: dict[str, Any] = {}
@@ -258,6 +265,9 @@ class Trainer:
             next_in = real_next
             if c.residual:     # the base action of each next state: of the last one where an episode ended
                 next_in = with_base(real_next, np.where(np.isfinite(final_labels), final_labels, labels))
+            if "shielded" in infos:    # the shield replaced these envs' actions (shield_in_loop)
+                rew = rew - c.shield_penalty * infos["shielded"]
+                ep_shielded += infos["shielded"].astype(int)
             ep_ret += rew
             ep_len += 1
             for i in range(c.n_envs):
@@ -270,7 +280,7 @@ class Trainer:
                     row = {"episode": self.episodes, "step": self.step + c.n_envs, "reward": round(float(ep_ret[i]), 3),
                            "length": int(ep_len[i]), "outcome": infos["outcome"][i],
                            "success": int(_success(infos, i)), "seconds": round(time.time() - t0, 2),
-                           "demo": int(self.demo[i])}
+                           "demo": int(self.demo[i]), "shielded": int(ep_shielded[i])}
                     self.rows.append(row)
                     log.writerow(row)
                     recent.append(row)
@@ -278,7 +288,7 @@ class Trainer:
                         writer.add_scalar("episode/reward", row["reward"], row["step"])
                         writer.add_scalar("episode/length", row["length"], row["step"])
                         writer.add_scalar("episode/success", row["success"], row["step"])
-                    ep_ret[i], ep_len[i] = 0.0, 0
+                    ep_ret[i], ep_len[i], ep_shielded[i] = 0.0, 0, 0
                     self.noise.reset(i)
                     self.draw_demo(i)
                     if c.total_steps <= 0:
@@ -369,6 +379,9 @@ class Trainer:
             writer.add_scalar("rollout/success_rate", float(np.mean([r["success"] for r in recent])), s)
             writer.add_scalar("rollout/ep_rew_mean", float(np.mean([r["reward"] for r in recent])), s)
             writer.add_scalar("rollout/ep_len_mean", float(np.mean([r["length"] for r in recent])), s)
+            if self.shield is not None:     # the share of decisions the shield replaced
+                writer.add_scalar("rollout/shielded_fraction", sum(r["shielded"] for r in recent)
+                                  / max(1, sum(r["length"] for r in recent)), s)
 
     def _log_hparams(self, writer, final: dict) -> None:
         hp = {k: (v if isinstance(v, (int, float, str, bool)) else str(v)) for k, v in self.cfg.to_dict().items()}
@@ -384,13 +397,14 @@ class Trainer:
             s = evaluate_1d(self.actor_policy(), c.eval_episodes, self.eval_seed)
         else:
             scs = episode_scenarios(spec, c.eval_episodes, self.eval_seed, self.wp_fn)
-            s = summarize(run_missions(self.actor_policy(), scs, self.env_cfg))
-        s.update(scenario=spec, step=self.step, episodes_trained=self.episodes, seconds=round(self.train_seconds, 1))
+            s = summarize(run_missions(self.eval_driver(), scs, self.env_cfg))
+        s.update(driver="shield" if c.shield_in_loop else "raw", scenario=spec, step=self.step, episodes_trained=self.episodes, seconds=round(self.train_seconds, 1))
         self.evals.append(s)
         if writer:
             for o, r in s["rates"].items():
                 writer.add_scalar(f"eval/{o}", r, self.step)
-        tqdm.write(f"[eval] step {self.step} ep {self.episodes} t {self.train_seconds:.0f}s {spec}: "
+        tqdm.write(f"[eval] step {self.step} ep {self.episodes} t {self.train_seconds:.0f}s {spec}"
+                   f"{' behind the shield' if c.shield_in_loop else ''}: "
                    + " ".join(f"{o} {100 * r:.1f}%" for o, r in s["rates"].items()))
         score = s["rates"]["goal"] - 2 * s["rates"]["collision"]
         if score >= self.best:      # ties: the later policy has seen more
@@ -402,6 +416,13 @@ class Trainer:
 
     def actor_policy(self) -> ActorPolicy:
         return ActorPolicy(self.agent, self.expert if self.cfg.residual else None)
+
+    def eval_driver(self):
+        """What the periodic evaluations fly: the actor, behind the shield when it trains behind one."""
+        pol = self.actor_policy()
+        if self.shield is None:
+            return pol
+        return SafetyShield(pol, fallback_for(pol, self.env_cfg.layout, self.env_cfg.vehicle))
 
     def _save(self, name: str, evaluation: dict) -> None:
         c = self.cfg
@@ -504,7 +525,8 @@ def read_rows(path: Path, up_to: int) -> list[dict]:
                 rows.append({"episode": ep, "step": int(r["step"]), "reward": float(r["reward"]),
                              "length": int(r["length"]), "outcome": r["outcome"],
                              "success": int(r.get("success") or r["outcome"] == "goal"),
-                             "seconds": float(r["seconds"]), "demo": int(r.get("demo") or 0)})
+                             "seconds": float(r["seconds"]), "demo": int(r.get("demo") or 0),
+                             "shielded": int(r.get("shielded") or 0)})
             except (KeyError, TypeError, ValueError) as err:
                 raise CheckpointError(f"{path}: unreadable episode row ({_one_line(err)})") from None
     return rows

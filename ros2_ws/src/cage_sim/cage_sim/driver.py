@@ -229,3 +229,48 @@ class FlownLabeller(ObservationLabeller):
                 self.missions[i] = m
         acts, _ = decide_batch(self.drivers[:len(missions)], obs, [mission_moment(m) for m in missions])
         return acts.astype(np.float32).reshape(-1, 1), final
+
+
+class Proposals:
+    """The actions a trainer's actor proposes this step, as the policy a ``SafetyShield`` checks."""
+
+    def __init__(self) -> None:
+        self.actions = np.zeros(0)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        return np.asarray(self.actions, dtype=np.float64).reshape(len(obs), 1)
+
+
+class ShieldFilter:
+    """The safety shield between a training actor and its missions (``train`` with ``shield_in_loop``).
+
+    Why: the shipped drivers fly a policy behind the shield, but a policy trained without it never
+    meets the states an override leaves it in (one override turns the vehicle 10-20 deg off the line
+    the policy was on), and in strong current it can answer with turns no override would have led
+    to. Here every proposed action goes through the very shield the evaluator and policy_node fly
+    (``decide_batch``: drift from the DVL, the returns' motion across scans, the known map, the
+    stall watch and the manoeuvre in hand), one ``Driver`` per env, reset when its mission changes;
+    the env flies what the shield lets through. Called once per env step with the observation the
+    proposals were made on (each ``ReturnMotion`` sees every scan once)."""
+
+    def __init__(self, controller: ArcController, known_map: bool = True):
+        self.proposals = Proposals()
+        self.shield = SafetyShield(self.proposals, ArcController(controller.layout, controller.vehicle,
+                                                                 **controller.tunables()))
+        self.known_map = known_map
+        self.drivers: list[Driver] = []
+        self.missions: list = []
+
+    def __call__(self, actions: np.ndarray, obs: np.ndarray, missions: Sequence) -> tuple[np.ndarray, np.ndarray]:
+        """(the actions flown (n,), whether the shield replaced each proposal (n,))."""
+        ctrl = self.shield.fallback
+        while len(self.drivers) < len(missions):
+            self.drivers.append(Driver(self.shield, ctrl.layout, ctrl.vehicle))
+            self.missions.append(None)
+        for d, i, m in zip(self.drivers, range(len(missions)), missions):
+            if self.missions[i] is not m:
+                d.reset()
+                d.known = m.map_points if self.known_map else None
+                self.missions[i] = m
+        self.proposals.actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(len(missions)), -1.0, 1.0)
+        return decide_batch(self.drivers[:len(missions)], obs, [mission_moment(m) for m in missions])

@@ -119,12 +119,13 @@ class ProcessVecEnv(VectorEnv):
     ``replay`` pool stays here, see the module doc), plus ``labeller``: ``driver.ObservationLabeller``
     or ``FlownLabeller``, run in the workers on every returned observation with the worker's
     missions; its actions in ``infos["labels"]`` and, for the episodes that ended, on their last
-    observation in ``infos["final_labels"]`` (NaN elsewhere), each a (n_envs, 1) array)."""
+    observation in ``infos["final_labels"]`` (NaN elsewhere), each a (n_envs, 1) array), and
+    ``action_filter`` (``CageNavVecEnv``'s; each worker gets its own copy, for its own missions)."""
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
     def __init__(self, n_envs: int, n_workers: int, scenario: Any = "cage", config=None, waypoint_fn=None,
-                 seed: int = 0, labeller=None, replay: Any = None):
+                 seed: int = 0, labeller=None, replay: Any = None, action_filter: Any = None):
         n_envs, n_workers = int(n_envs), int(n_workers)
         if not 1 <= n_workers <= n_envs:
             raise ValueError(f"env_workers: must be between 1 and n_envs ({n_envs}), got {n_workers}")
@@ -151,7 +152,8 @@ class ProcessVecEnv(VectorEnv):
 
             def make(n=len(idx), part=part):
                 relay = ReplayRelay(keep) if replay is not None else None
-                return CageNavVecEnv(n, scenario, self.config, waypoint_fn, seed=part, replay=relay)
+                return CageNavVecEnv(n, scenario, self.config, waypoint_fn, seed=part, replay=relay,
+                                     action_filter=action_filter)
             p = ctx.Process(target=_worker, args=(child, make, labeller), daemon=True)
             p.start()
             child.close()

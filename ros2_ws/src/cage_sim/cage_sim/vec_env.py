@@ -23,6 +23,10 @@ Seeding: each env draws its scenarios from its own generator, spawned from one `
 ``replay``: an object with ``offer(scenario, outcome, tries)`` and ``draw() -> (scenario, tries) |
 None`` (the trainer's ``HardCaseReplay``) is offered every finished mission and may hand back a
 failed one to fly again instead of a fresh draw.
+
+``action_filter``: a callable ``(actions, obs, missions) -> (flown actions, replaced flags)`` (the
+trainer's ``driver.ShieldFilter``) that every step's actions pass through, given the observation
+they were chosen on; ``infos["shielded"]`` then says which envs flew another action than theirs.
 """
 from __future__ import annotations
 
@@ -63,7 +67,8 @@ class CageNavVecEnv(RngStates, VectorEnv):
 
     def __init__(self, n_envs: int, scenario: Any = "cage", config: EnvConfig | None = None,
                  waypoint_fn: WaypointFn | None = None, seed: int = 0,
-                 autoreset_mode: str | AutoresetMode = AutoresetMode.SAME_STEP, replay: Any = None):
+                 autoreset_mode: str | AutoresetMode = AutoresetMode.SAME_STEP, replay: Any = None,
+                 action_filter: Any = None):
         if int(n_envs) < 1:
             raise ValueError(f"n_envs: must be >= 1, got {n_envs}")
         names = {"same_step": AutoresetMode.SAME_STEP, "next_step": AutoresetMode.NEXT_STEP}
@@ -82,6 +87,8 @@ class CageNavVecEnv(RngStates, VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = None
         self.replay = replay
+        self.action_filter = action_filter
+        self._obs: np.ndarray | None = None                   # the last observation returned (the filter's)
         self._tries = np.ones(self.num_envs, dtype=int)       # times each env's mission has been flown
         self._seed(seed)
         self.missions: list[Mission] = []
@@ -107,7 +114,8 @@ class CageNavVecEnv(RngStates, VectorEnv):
         self.missions = [self._new_mission(i) for i in range(self.num_envs)]
         self._pending[:] = False
         obs = self._observe(range(self.num_envs))
-        return obs, self._step_infos([None] * self.num_envs)
+        self._obs = obs.copy()
+        return obs, self._step_infos([None] * self.num_envs, np.zeros(self.num_envs, dtype=bool))
 
     def _new_mission(self, i: int) -> Mission:
         """Env ``i``'s next mission: a failed one to fly again (``replay``) or a fresh draw."""
@@ -125,16 +133,24 @@ class CageNavVecEnv(RngStates, VectorEnv):
     def _observe(self, idx) -> np.ndarray:
         return observe_batch(self.config, [self.missions[i] for i in idx], self.rngs[0])
 
-    def _step_infos(self, outcomes: list[str | None]) -> dict[str, Any]:
+    def _step_infos(self, outcomes: list[str | None], shielded: np.ndarray) -> dict[str, Any]:
         ones = np.ones(self.num_envs, dtype=bool)
-        return {"outcome": np.array(outcomes, dtype=object), "_outcome": ones,
-                "is_success": np.array([o == "goal" for o in outcomes]), "_is_success": ones,
-                "steps": np.array([m.steps for m in self.missions]), "_steps": ones}
+        infos = {"outcome": np.array(outcomes, dtype=object), "_outcome": ones,
+                 "is_success": np.array([o == "goal" for o in outcomes]), "_is_success": ones,
+                 "steps": np.array([m.steps for m in self.missions]), "_steps": ones}
+        if self.action_filter is not None:
+            infos.update(shielded=shielded, _shielded=ones)
+        return infos
 
     def step(self, actions: np.ndarray):
         if not self.missions:
             raise RuntimeError("call reset() before step()")
         actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(self.num_envs), -1.0, 1.0)
+        shielded = np.zeros(self.num_envs, dtype=bool)
+        if self.action_filter is not None:
+            actions, shielded = self.action_filter(actions, self._obs, self.missions)
+            actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(self.num_envs), -1.0, 1.0)
+            shielded = np.asarray(shielded, dtype=bool).reshape(self.num_envs)
         rewards = np.empty(self.num_envs)
         outcomes: list[str | None] = [None] * self.num_envs
         for i, (m, a) in enumerate(zip(self.missions, actions)):
@@ -148,7 +164,7 @@ class CageNavVecEnv(RngStates, VectorEnv):
         terminated = np.array([o in TERMINAL for o in outcomes])
         truncated = np.array([o == "timeout" for o in outcomes])
         obs = self._observe(range(self.num_envs))
-        infos = self._step_infos(outcomes)
+        infos = self._step_infos(outcomes, shielded)
         done = np.flatnonzero(terminated | truncated)
         if self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP:
             self._pending = terminated | truncated
@@ -163,6 +179,7 @@ class CageNavVecEnv(RngStates, VectorEnv):
             infos.update(final_obs=final_obs, _final_obs=terminated | truncated, final_info=final_info,
                          _final_info=terminated | truncated)
             obs[done] = self._observe(done)
+        self._obs = obs.copy()
         return obs, rewards, terminated, truncated, infos
 
 
