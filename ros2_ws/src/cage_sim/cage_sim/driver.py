@@ -251,7 +251,12 @@ class ShieldFilter:
     (``decide_batch``: drift from the DVL, the returns' motion across scans, the known map, the
     stall watch and the manoeuvre in hand), one ``Driver`` per env, reset when its mission changes;
     the env flies what the shield lets through. Called once per env step with the observation the
-    proposals were made on (each ``ReturnMotion`` sees every scan once)."""
+    proposals were made on (each ``ReturnMotion`` sees every scan once).
+
+    The flags it returns mark proposals the shield found unsafe and replaced. The controller's
+    handovers (open water, the goal approach, a stalled policy) replace a proposal too, but they say
+    nothing about its safety: in open water any exploration noise would count, a third of all
+    decisions in training."""
 
     def __init__(self, controller: ArcController, known_map: bool = True):
         self.proposals = Proposals()
@@ -261,16 +266,26 @@ class ShieldFilter:
         self.drivers: list[Driver] = []
         self.missions: list = []
 
+    def handed(self) -> int:
+        """Decisions so far that the controller's action flew by the shield's rules, not for safety."""
+        return self.shield.handovers + self.shield.approaches + self.shield.recoveries
+
     def __call__(self, actions: np.ndarray, obs: np.ndarray, missions: Sequence) -> tuple[np.ndarray, np.ndarray]:
-        """(the actions flown (n,), whether the shield replaced each proposal (n,))."""
+        """(the actions flown (n,), whether the shield replaced each proposal as unsafe (n,))."""
         ctrl = self.shield.fallback
-        while len(self.drivers) < len(missions):
+        n = len(missions)
+        while len(self.drivers) < n:
             self.drivers.append(Driver(self.shield, ctrl.layout, ctrl.vehicle))
             self.missions.append(None)
-        for d, i, m in zip(self.drivers, range(len(missions)), missions):
+        proposed = np.clip(np.asarray(actions, dtype=np.float64).reshape(n), -1.0, 1.0)
+        flown, unsafe = np.empty(n), np.zeros(n, dtype=bool)
+        for i, (d, o, m) in enumerate(zip(self.drivers, obs, missions)):
             if self.missions[i] is not m:
                 d.reset()
                 d.known = m.map_points if self.known_map else None
                 self.missions[i] = m
-        self.proposals.actions = np.clip(np.asarray(actions, dtype=np.float64).reshape(len(missions)), -1.0, 1.0)
-        return decide_batch(self.drivers[:len(missions)], obs, [mission_moment(m) for m in missions])
+            self.proposals.actions = proposed[i:i + 1]
+            handed = self.handed()
+            a, replaced = decide_batch([d], o[None], [mission_moment(m)])
+            flown[i], unsafe[i] = a[0], bool(replaced[0]) and self.handed() == handed
+        return flown, unsafe

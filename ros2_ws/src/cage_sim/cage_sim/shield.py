@@ -149,6 +149,7 @@ class SafetyShield:
     interventions: int = 0
     approaches: int = 0              # decisions the orbit guard, sure approach or goal search took (in interventions too)
     recoveries: int = 0              # decisions flown by the controller for a stalled policy (likewise)
+    handovers: int = 0               # open water: decisions the controller's action replaced the policy's (likewise)
 
     def __post_init__(self) -> None:
         if not (1 <= self.horizon <= self.horizon_max) or self.drift_horizon < 0:
@@ -408,6 +409,7 @@ class SafetyShield:
         if self.open_water and len(p.returns) == 0:
             b = choice()[0]
             self.interventions += int(abs(b - a) > 0.05)
+            self.handovers += int(abs(b - a) > 0.05)
             self._remember(commit, -1, 0)
             return b
         handed = stalled or (self.approach and p.final and orbits_goal(a, dist, err, self.fallback.vehicle,

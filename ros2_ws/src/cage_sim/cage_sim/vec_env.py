@@ -26,7 +26,8 @@ failed one to fly again instead of a fresh draw.
 
 ``action_filter``: a callable ``(actions, obs, missions) -> (flown actions, replaced flags)`` (the
 trainer's ``driver.ShieldFilter``) that every step's actions pass through, given the observation
-they were chosen on; ``infos["shielded"]`` then says which envs flew another action than theirs.
+they were chosen on; ``infos["shielded"]`` then holds its flags (the shield: which proposals it
+replaced as unsafe).
 """
 from __future__ import annotations
 
