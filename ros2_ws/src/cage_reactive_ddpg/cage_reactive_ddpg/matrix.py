@@ -196,7 +196,8 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
     Cell ``k``'s missions come from seed ``[seed, k]`` (episode ``i``: ``default_rng([[seed, k], i])``
     in effect), so drivers meet identical missions and cells never share one, whichever cells a
     run does. ``grace``: see ``run_missions``; each row then counts its late goals (``late_goal``).
-    ``failures`` (a path prefix): each row lists its failed episodes (``failed``), and the tracks of a
+    Each row lists its failed episodes (``failed``: index, outcome, decisions), so two drivers can be
+    compared mission by mission (``failure_overlap``). ``failures`` (a path prefix): the tracks of a
     cell and driver with any are plotted to ``<failures>_cell<k>_<driver>.png``. ``only``: just these
     missions of each cell (indices below ``episodes``), each the very mission of a full run.
     ``known_map``: a shield keeps clear of each mission's known map too (``run_missions``). ``trace``:
@@ -235,7 +236,7 @@ def run_matrix(cells: list[Condition], drivers: dict, episodes: int, seed: int, 
                          "schools": cell.schools, "driver": dname, **{f"{o}": s["counts"][o] for o in s["counts"]},
                          "episodes": s["episodes"], "ci95": s["ci95"], "mean_steps": s["mean_steps"],
                          "replans": s["replans"], **({"late_goal": s["late"]["goal"]} if grace else {}),
-                         **({"failed": failed_episodes(res)} if failures else {})})
+                         "failed": failed_episodes(res)})
             if progress:
                 print(f"cell {k} {cell.name} {dname}: " + " ".join(
                     f"{o} {100 * s['rates'][o]:.1f}%" for o in s["rates"]), flush=True)
