@@ -201,3 +201,13 @@ def test_policy_rows_are_reused_only_for_the_policy_named(tmp_path, capsys):
     assert main(args + ["--drivers", "raw,baseline", "--out", str(tmp_path / "m4"),
                         "--reuse", f"{shipped.with_suffix('.json')},{raw.with_suffix('.json')}"]) == 0
 
+
+
+def test_an_out_prefix_with_a_dot_keeps_it(tmp_path):
+    """``--out runs/p0.5`` writes ``p0.5.md/.csv/.json`` (it wrote ``p0.*`` before: the dot read as
+    a suffix); ``--out m.json`` still names the set ``m.*``."""
+    args = ["--matrix", "tiny", "--episodes", "1", "--seed", "5", "--drivers", "baseline", "--cells", "0", "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "p0.5")]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p0.5.csv", "p0.5.json", "p0.5.md"]
+    assert main([*args, "--out", str(tmp_path / "m.json")]) == 0
+    assert {"m.csv", "m.json", "m.md"} <= {p.name for p in tmp_path.iterdir()}

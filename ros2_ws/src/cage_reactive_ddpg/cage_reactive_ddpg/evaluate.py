@@ -289,6 +289,13 @@ def evaluate(driver: Policy, scenario: str, episodes: int, seed: int, motion: st
     return summary, scs, res
 
 
+def output_paths(prefix: Path) -> dict[str, Path]:
+    """The matrix's .md, .csv and .json for ``--out PREFIX``. A prefix may hold dots (``runs/p0.5``
+    -> ``runs/p0.5.md``); one ending in one of the three suffixes names the set (``m.json`` -> ``m.*``)."""
+    stem = prefix.with_suffix("") if prefix.suffix in (".md", ".csv", ".json") else prefix
+    return {ext: stem.parent / (stem.name + ext) for ext in (".md", ".csv", ".json")}
+
+
 def replan_planner(routes: WaypointFn | None, replan: bool) -> WaypointFn | None:
     """The planner that replans under way: the mission's own (``--planner rrt``), else none."""
     if replan and routes is None:
@@ -498,9 +505,10 @@ def matrix_main(a: argparse.Namespace) -> int:
              + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else ""))
     md = mx.markdown(rows, title)
     print(md)
-    prefix.with_suffix(".md").write_text(md)
-    mx.write_csv(rows, prefix.with_suffix(".csv"))
-    prefix.with_suffix(".json").write_text(json.dumps(
+    out = output_paths(prefix)
+    out[".md"].write_text(md)
+    mx.write_csv(rows, out[".csv"])
+    out[".json"].write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
          "sensor": env.sonar.profile, "replan": a.replan, "known_map": a.known_map, "observation": env.layout.to_dict(),
          "policy": policy, "grace": a.grace, **({"only": only} if only else {}), "rows": rows}, indent=1))

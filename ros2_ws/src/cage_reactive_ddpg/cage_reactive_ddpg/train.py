@@ -398,7 +398,8 @@ class Trainer:
         else:
             scs = episode_scenarios(spec, c.eval_episodes, self.eval_seed, self.wp_fn)
             s = summarize(run_missions(self.eval_driver(), scs, self.env_cfg))
-        s.update(driver="shield" if c.shield_in_loop else "raw", scenario=spec, step=self.step, episodes_trained=self.episodes, seconds=round(self.train_seconds, 1))
+        s.update(driver="shield" if c.shield_in_loop else "raw", scenario=spec, step=self.step,
+                 episodes_trained=self.episodes, seconds=round(self.train_seconds, 1))
         self.evals.append(s)
         if writer:
             for o, r in s["rates"].items():
