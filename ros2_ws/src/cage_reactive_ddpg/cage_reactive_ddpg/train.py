@@ -30,7 +30,7 @@ from typing import Any, Callable
 import numpy as np
 import torch
 from cage_sim.controller import ArcController
-from cage_sim.driver import FlownLabeller, ObservationLabeller, ShieldFilter, fallback_for
+from cage_sim.driver import FlownLabeller, ObservationLabeller, ShieldFilter, fallback_for, fallback_like
 from cage_sim.process_vec_env import ProcessVecEnv
 from cage_sim.shield import SafetyShield
 from cage_sim.vec_env import CageNavVecEnv, finished
@@ -141,9 +141,8 @@ class Trainer:
             (FlownLabeller if cfg.expert == "flown" else ObservationLabeller)(self.expert)
         # The shield in the loop: every action passes the shield the evaluator flies, with the
         # fallback the evaluator gives this policy (a residual actor's base, else the default controller).
-        self.shield = ShieldFilter(self.expert if cfg.residual else
-                                   ArcController(self.env_cfg.layout, self.env_cfg.vehicle)) \
-            if cfg.shield_in_loop else None
+        self.shield = ShieldFilter(fallback_like(self.expert if cfg.residual else None, self.env_cfg.layout,
+                                                 self.env_cfg.vehicle)) if cfg.shield_in_loop else None
         if cfg.scenario == STUDY1D:
             self.envs = Study1DVecEnv(cfg.n_envs, seed=cfg.seed)
             obs_dim = 1

@@ -111,7 +111,12 @@ def residual_base(policy) -> ArcController | None:
 def fallback_for(policy, layout, vehicle: VehicleParams | None = None) -> ArcController:
     """The shield's fallback controller for ``policy``: a residual policy's base's parameters (the
     controller it learnt to correct; ``decide_batch`` then decides once for both), else the default."""
-    base = residual_base(policy)
+    return fallback_like(residual_base(policy), layout, vehicle)
+
+
+def fallback_like(base: ArcController | None, layout, vehicle: VehicleParams | None = None) -> ArcController:
+    """A new controller with ``base``'s parameters (None: the default's): ``fallback_for`` for a
+    policy whose base is known before the policy is (the trainer's, ``ShieldFilter``)."""
     tun = base.tunables() if base is not None else {}
     return ArcController(layout, vehicle, **tun) if vehicle is not None else ArcController(layout, **tun)
 
@@ -258,10 +263,11 @@ class ShieldFilter:
     nothing about its safety: in open water any exploration noise would count, a third of all
     decisions in training."""
 
-    def __init__(self, controller: ArcController, known_map: bool = True):
+    def __init__(self, fallback: ArcController, known_map: bool = True):
+        """``fallback``: the shield's controller, as the evaluator would give the trained policy
+        (``fallback_like``: a residual actor's base's parameters, else the default's)."""
         self.proposals = Proposals()
-        self.shield = SafetyShield(self.proposals, ArcController(controller.layout, controller.vehicle,
-                                                                 **controller.tunables()))
+        self.shield = SafetyShield(self.proposals, fallback)
         self.known_map = known_map
         self.drivers: list[Driver] = []
         self.missions: list = []

@@ -115,7 +115,8 @@ class CageNavVecEnv(RngStates, VectorEnv):
         self.missions = [self._new_mission(i) for i in range(self.num_envs)]
         self._pending[:] = False
         obs = self._observe(range(self.num_envs))
-        self._obs = obs.copy()
+        if self.action_filter is not None:     # the observation the next actions are chosen on
+            self._obs = obs.copy()
         return obs, self._step_infos([None] * self.num_envs, np.zeros(self.num_envs, dtype=bool))
 
     def _new_mission(self, i: int) -> Mission:
@@ -180,7 +181,8 @@ class CageNavVecEnv(RngStates, VectorEnv):
             infos.update(final_obs=final_obs, _final_obs=terminated | truncated, final_info=final_info,
                          _final_info=terminated | truncated)
             obs[done] = self._observe(done)
-        self._obs = obs.copy()
+        if self.action_filter is not None:     # the observation the next actions are chosen on
+            self._obs = obs.copy()
         return obs, rewards, terminated, truncated, infos
 
 
