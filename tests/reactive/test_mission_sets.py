@@ -58,6 +58,10 @@ def test_sets_that_cannot_be_pooled_are_refused_in_one_line(sets, tmp_path, caps
     (tmp_path / "other.json").write_text(json.dumps(other))
     assert main([f"x={m6}:baseline,{tmp_path / 'other.json'}:baseline", "--cells", "0"]) == 2
     assert "differs from" in capsys.readouterr().err
+    plain = {**json.loads(m6.read_text()), "seed": 9, "observation": {"name": "another layout"}}
+    (tmp_path / "plain.json").write_text(json.dumps(plain))
+    assert main([f"x={m6}:baseline,{tmp_path / 'plain.json'}:baseline", "--cells", "0"]) == 2
+    assert "in observation" in capsys.readouterr().err
     assert main([f"x={m6}:raw", "--cells", "0"]) == 2 and "no 'raw' rows" in capsys.readouterr().err
     assert main([f"{m6}:baseline", "--cells", "0"]) == 2 and "expected LABEL=" in capsys.readouterr().err
     assert main([f"x={m6}:baseline", "--cells", "0", "--goal", "0"]) == 0

@@ -14,9 +14,10 @@ so two rows, of one file or two, compare here. Pure Python: reads the JSONs ``ev
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from .matrix import driver_rows
 
 #: What must match for mission ``i`` of cell ``k`` to be the same mission in both files.
 SAME_MISSIONS = ("matrix", "seed", "episodes", "planner")
@@ -29,17 +30,11 @@ class OverlapError(ValueError):
 def read_side(spec: str) -> tuple[str, dict, dict[int, dict[int, str]]]:
     """``PATH:DRIVER`` -> (label, the file's header, {cell: {mission index: outcome}} of the driver's
     failures). A row written before rows listed their failures (session 51) cannot be compared."""
-    path, sep, driver = spec.rpartition(":")
-    if not sep or not path or not driver:
-        raise OverlapError(f"{spec}: expected PATH:DRIVER (e.g. runs/m.json:shield)")
     try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as err:
-        raise OverlapError(f"{path}: not a readable matrix JSON ({err})") from None
-    rows = [r for r in data.get("rows", []) if r.get("driver") == driver]
-    if not rows:
-        have = sorted({r.get("driver") for r in data.get("rows", [])})
-        raise OverlapError(f"{path}: no {driver!r} rows (drivers there: {', '.join(map(str, have)) or 'none'})")
+        path, data, rows = driver_rows(spec)
+    except ValueError as err:
+        raise OverlapError(str(err)) from None
+    driver = rows[0]["driver"]
     failed: dict[int, dict[int, str]] = {}
     for r in rows:
         if "failed" not in r:

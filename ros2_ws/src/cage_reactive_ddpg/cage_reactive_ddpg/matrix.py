@@ -21,8 +21,10 @@ A matrix (``evaluate --matrix NAME``) is a list of cells; ``MATRICES`` holds the
 from __future__ import annotations
 
 import itertools
+import json
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 from cage_sim.scenarios import Sampler, Scenario
@@ -267,6 +269,24 @@ def markdown(rows: list[dict], title: str) -> str:
                 cells.append(str(r.get("late_goal", "-")) if r else "-")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def driver_rows(spec: str) -> tuple[str, dict, list[dict]]:
+    """``PATH:DRIVER`` -> (path, the matrix JSON ``evaluate --matrix`` wrote, its rows of that
+    driver). What the tools that read those files back (``failure_overlap``, ``mission_sets``)
+    share; a bad spec, an unreadable file or a driver the file lacks is a ``ValueError`` naming it."""
+    path, sep, driver = spec.rpartition(":")
+    if not sep or not path or not driver:
+        raise ValueError(f"{spec}: expected PATH:DRIVER (e.g. runs/m.json:shield)")
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as err:
+        raise ValueError(f"{path}: not a readable matrix JSON ({err})") from None
+    rows = [r for r in data.get("rows", []) if r.get("driver") == driver]
+    if not rows:
+        have = sorted({str(r.get("driver")) for r in data.get("rows", [])})
+        raise ValueError(f"{path}: no {driver!r} rows (drivers there: {', '.join(have) or 'none'})")
+    return path, data, rows
 
 
 def write_csv(rows: list[dict], path) -> None:

@@ -18,15 +18,16 @@ Pure Python.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from .evaluate import wilson
-from .matrix import parse_cells
+from .matrix import driver_rows, parse_cells
 
 #: What must match for two files to be sets of the same missions' kind (the seed must differ).
-SAME_KIND = ("matrix", "episodes", "planner", "replan", "known_map", "sensor", "grace")
+#: ``observation``: the layout the drivers read. A baseline run with ``--sensor`` and no policy reads
+#: the plain scan, one beside a policy reads that policy's scan, memory and velocity: not one driver.
+SAME_KIND = ("matrix", "episodes", "planner", "replan", "known_map", "sensor", "observation", "grace")
 
 
 class SetsError(ValueError):
@@ -42,16 +43,11 @@ def read_group(spec: str) -> tuple[str, list[dict]]:
         raise SetsError(f"{spec!r}: expected LABEL=PATH:DRIVER[,PATH:DRIVER...]")
     sets: list[dict] = []
     for item in files.split(","):
-        path, sep, driver = item.rpartition(":")
-        if not sep or not path or not driver:
-            raise SetsError(f"{label}: {item!r}: expected PATH:DRIVER")
         try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, ValueError) as err:
-            raise SetsError(f"{label}: {path}: not a readable matrix JSON ({err})") from None
-        rows = {int(r["cell"]): r for r in data.get("rows", []) if r.get("driver") == driver}
-        if not rows:
-            raise SetsError(f"{label}: {path}: no {driver!r} rows")
+            path, data, chosen = driver_rows(item)
+        except ValueError as err:
+            raise SetsError(f"{label}: {err}") from None
+        rows = {int(r["cell"]): r for r in chosen}
         kind = {k: data.get(k) for k in SAME_KIND}
         if sets and kind != sets[0]["kind"]:
             diff = [k for k in SAME_KIND if kind[k] != sets[0]["kind"][k]]
