@@ -31,6 +31,7 @@ BAD_PARAMETERS = [
     ("cage_reactive_ddpg", "policy_node", "max_invalid_fraction:=5.0"),
     ("cage_reactive_ddpg", "policy_node", "waypoint_radius:=-1.0"),
     ("cage_reactive_ddpg", "policy_node", "replan_after:=0"),
+    ("cage_reactive_ddpg", "policy_node", "remembered_returns:=none"),
     ("cage_sim", "mission_client_node", "progress_every:=0"),
     ("cage_sim", "mission_client_node", "result_grace:=0.0"),
 ]
@@ -61,6 +62,21 @@ def test_bad_parameters_are_refused_with_one_line_naming_them(pkg, exe, arg):
     extra = ("policy:=baseline",) if exe == "policy_node" else ()
     err = _construct(pkg, exe, arg, *extra)
     assert err.startswith(f"parameter {arg.split(':=')[0]}:=") and "\n" not in err, err
+
+
+def test_remembered_returns_reaches_the_shield_and_the_baseline():
+    """``remembered_returns:=out_of_view`` is the perception setting of the shield's fallback (and of
+    the baseline), as ``evaluate --remembered`` sets it offline."""
+    import rclpy
+    from cage_reactive_ddpg.nodes.policy_node import PolicyNode
+    for extra, of in (((), lambda n: n.driver.policy.fallback), (("policy:=baseline",), lambda n: n.driver.policy)):
+        rclpy.init(args=["--ros-args", "-p", "remembered_returns:=out_of_view", *[a for p in extra for a in ("-p", p)]])
+        try:
+            node = PolicyNode()
+            assert of(node).remembered == "out_of_view"
+            node.destroy_node()
+        finally:
+            rclpy.try_shutdown()
 
 
 def _policy_copy(tmp_path, name, mutate):

@@ -242,15 +242,18 @@ def plot_tracks(path: str | Path, scenarios: list[Scenario], results: list[Episo
     plt.close(fig)
 
 
-def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None):
+def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None, remembered: str = "all"):
     """``baseline`` -> ArcController (over the ``sensor`` profile's scan); else a policy file (None =
-    the shipped one), behind the safety shield unless ``shield`` is off (as the policy node runs it)."""
+    the shipped one), behind the safety shield unless ``shield`` is off (as the policy node runs it).
+    ``remembered``: which remembered returns the baseline's or the shield's perception counts."""
     if spec == "baseline":
-        return ArcController(EnvConfig(sonar=sensor or "study").layout), "baseline (ArcController)", None
+        return (ArcController(EnvConfig(sonar=sensor or "study").layout, remembered=remembered),
+                "baseline (ArcController)", None)
     from .policy import load_policy
     pol = load_policy(spec, profile=sensor)
     if shield:
-        return SafetyShield(pol, fallback_for(pol, pol.layout)), f"policy {pol.path} + shield", pol.metadata
+        return SafetyShield(pol, fallback_for(pol, pol.layout, remembered=remembered)), f"policy {pol.path} + shield", \
+            pol.metadata
     return pol, f"policy {pol.path}", pol.metadata
 
 
@@ -320,6 +323,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="the shield keeps clear of the mission's known map (known obstacles, nominal net circle) "
                          "beside the sonar's returns, as policy_node does with the map topic (default on; off: "
                          "the returns alone, the shield before session 45)")
+    ap.add_argument("--remembered", default="all", choices=["all", "out_of_view"],
+                    help="which remembered returns the shield and the baseline count beside the scan: all (default), "
+                         "or only those outside the scan's field of view (none for a 360 deg sonar), as "
+                         "policy_node's remembered_returns parameter (session 52)")
     ap.add_argument("--replan", default="off", choices=["off", "on"],
                     help="on: ask for a new plan under way when policy_node would (40 decisions without "
                          "progress, 8 m off the route), as the node graph does; off: one plan per mission")
@@ -360,7 +367,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.matrix:
         return matrix_main(a)
     try:   # a missing or mismatched policy, a bad scenario: one clear line, no traceback
-        driver, name, meta = load_driver(a.policy, a.shield == "on", a.sensor)
+        driver, name, meta = load_driver(a.policy, a.shield == "on", a.sensor, a.remembered)
         env = driver_env(meta, a)
         motion = env.motion
         only = parse_only(a)
@@ -376,7 +383,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan,
-                   known_map=a.known_map, failed=failed_episodes(res), **({"only": only} if only else {}))
+                   known_map=a.known_map, failed=failed_episodes(res), **({"only": only} if only else {}),
+                   **({"remembered": a.remembered} if a.remembered != "all" else {}))
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
                        shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)
@@ -429,13 +437,14 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observat
     or its bytes): merged without ``--policy``, another policy's rows once went out under the
     default's name (session 48). A file's rows for cells and drivers already taken are skipped."""
     unrecorded = {"replan": "off", "observation": observation,    # what a file too old to record the key ran with
-                  "known_map": "off"}
+                  "known_map": "off", "remembered": "all"}
     rows: list[dict] = []
     flying = _policy_flown(a.policy)                             # this run's weights, resolved once
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
         keys = [("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                ("motion", motion), ("sensor", sensor), ("replan", a.replan), ("observation", observation)]
+                ("motion", motion), ("sensor", sensor), ("replan", a.replan), ("observation", observation),
+                ("remembered", a.remembered)]
         if any(r["driver"] == "shield" for r in old["rows"]):   # the map changes only the shield's rows
             keys.append(("known_map", a.known_map))
         for key, mine in keys:
@@ -466,7 +475,8 @@ def matrix_main(a: argparse.Namespace) -> int:
         drivers, meta = {}, None
         for d in wanted:
             if d != "baseline":
-                drivers[d], _, meta = load_driver(a.policy, shield=(d == "shield"), sensor=a.sensor)
+                drivers[d], _, meta = load_driver(a.policy, shield=(d == "shield"), sensor=a.sensor,
+                                                  remembered=a.remembered)
         own_sonar = a.policy == "baseline" or (a.policy is None and a.sensor is not None)
         if meta is None and not own_sonar:
             # The baseline alone still reads the policy's scan, memory and velocity: rows of one
@@ -476,7 +486,7 @@ def matrix_main(a: argparse.Namespace) -> int:
             _, _, meta = load_driver(a.policy, shield=False, sensor=a.sensor)
         env = driver_env(meta, a)
         if "baseline" in wanted:
-            drivers["baseline"] = ArcController(env.layout)     # the same scan (and memory) as the policy
+            drivers["baseline"] = ArcController(env.layout, remembered=a.remembered)   # the policy's scan and memory
         motion = env.motion
         old = _reused(a, name, motion, env.sonar.profile, env.layout.to_dict())
         wanted_cells = set(mx.parse_cells(a.cells, len(cells)))
@@ -502,7 +512,8 @@ def matrix_main(a: argparse.Namespace) -> int:
     per_cell = f"missions {a.only} of {a.episodes}" if only else f"{a.episodes} missions"
     title = (f"matrix {name}: sensor {env.sonar.profile}, {per_cell} per cell, seed {a.seed}, "
              f"planner {a.planner}, replan {a.replan}, known map {a.known_map}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
-             + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else ""))
+             + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else "")
+             + (f", remembered returns {a.remembered}" if a.remembered != "all" else ""))
     md = mx.markdown(rows, title)
     print(md)
     out = output_paths(prefix)
@@ -511,7 +522,8 @@ def matrix_main(a: argparse.Namespace) -> int:
     out[".json"].write_text(json.dumps(
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
          "sensor": env.sonar.profile, "replan": a.replan, "known_map": a.known_map, "observation": env.layout.to_dict(),
-         "policy": policy, "grace": a.grace, **({"only": only} if only else {}), "rows": rows}, indent=1))
+         "policy": policy, "grace": a.grace, **({"only": only} if only else {}),
+         **({"remembered": a.remembered} if a.remembered != "all" else {}), "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
         mx.plot(rows, a.plot, title)

@@ -27,7 +27,7 @@ from .matrix import driver_rows, parse_cells
 #: What must match for two files to be sets of the same missions' kind (the seed must differ).
 #: ``observation``: the layout the drivers read. A baseline run with ``--sensor`` and no policy reads
 #: the plain scan, one beside a policy reads that policy's scan, memory and velocity: not one driver.
-SAME_KIND = ("matrix", "episodes", "planner", "replan", "known_map", "sensor", "observation", "grace")
+SAME_KIND = ("matrix", "episodes", "planner", "replan", "known_map", "sensor", "observation", "grace", "remembered")
 
 
 class SetsError(ValueError):

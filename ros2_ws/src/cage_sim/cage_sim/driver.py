@@ -108,16 +108,18 @@ def residual_base(policy) -> ArcController | None:
     return getattr(policy, "residual_base", None)
 
 
-def fallback_for(policy, layout, vehicle: VehicleParams | None = None) -> ArcController:
+def fallback_for(policy, layout, vehicle: VehicleParams | None = None, remembered: str = "all") -> ArcController:
     """The shield's fallback controller for ``policy``: a residual policy's base's parameters (the
-    controller it learnt to correct; ``decide_batch`` then decides once for both), else the default."""
-    return fallback_like(residual_base(policy), layout, vehicle)
+    controller it learnt to correct; ``decide_batch`` then decides once for both), else the default.
+    ``remembered``: which remembered returns the shield's perception counts (``ArcController``)."""
+    return fallback_like(residual_base(policy), layout, vehicle, remembered)
 
 
-def fallback_like(base: ArcController | None, layout, vehicle: VehicleParams | None = None) -> ArcController:
+def fallback_like(base: ArcController | None, layout, vehicle: VehicleParams | None = None,
+                  remembered: str = "all") -> ArcController:
     """A new controller with ``base``'s parameters (None: the default's): ``fallback_for`` for a
     policy whose base is known before the policy is (the trainer's, ``ShieldFilter``)."""
-    tun = base.tunables() if base is not None else {}
+    tun = {**(base.tunables() if base is not None else {}), "remembered": remembered}
     return ArcController(layout, vehicle, **tun) if vehicle is not None else ArcController(layout, **tun)
 
 

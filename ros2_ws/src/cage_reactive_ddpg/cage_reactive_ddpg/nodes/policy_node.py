@@ -31,7 +31,7 @@ from collections import OrderedDict
 
 import numpy as np
 from cage_planner_msgs.msg import CageMap, HeadingSetpoint, Mission, MissionEvent
-from cage_sim.controller import ArcController
+from cage_sim.controller import REMEMBERED, ArcController
 from cage_sim.driver import Driver, fallback_for
 from cage_sim.map_points import MapPoints
 from cage_sim.mission import EnvConfig
@@ -79,7 +79,8 @@ class PolicyNode(Node):
                          **REPLAN_DEFAULTS, replan_wait=2.0,
                          waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
-        self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor=""))
+        self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor="",
+                              remembered_returns="all"))
         self.check_parameters()
         self.scan_timeout_ns = int(round(self.p["scan_timeout"] * 1e9))
         self.last_scan_ns: int | None = None          # sim time of the last scan: the decision watchdog
@@ -152,7 +153,7 @@ class PolicyNode(Node):
     def shielded(self, policy, layout) -> SafetyShield:
         """``policy`` behind the safety shield with the node's shield parameters (its goal search's
         tables built now, not at the first search)."""
-        return SafetyShield(policy, fallback_for(policy, layout, self.vehicle),
+        return SafetyShield(policy, fallback_for(policy, layout, self.vehicle, self.p["remembered_returns"]),
                             **{field: self.p[name] for name, (field, _) in SHIELD_OPTIONS.items()}).prepare()
 
     def check_parameters(self) -> None:
@@ -171,6 +172,8 @@ class PolicyNode(Node):
         check("replan_wait", p["replan_wait"], fin(p["replan_wait"]) and 0 < p["replan_wait"] <= 60,
               "in (0, 60] wall seconds")
         check("waypoint_radius", p["waypoint_radius"], fin(p["waypoint_radius"]) and p["waypoint_radius"] > 0, "> 0")
+        check("remembered_returns", p["remembered_returns"], p["remembered_returns"] in REMEMBERED,
+              f"one of {', '.join(REMEMBERED)}")
         check("liveness_timeout", p["liveness_timeout"], fin(p["liveness_timeout"]) and p["liveness_timeout"] > 0,
               "> 0 s")
 
@@ -187,7 +190,8 @@ class PolicyNode(Node):
         if spec == "baseline":
             env = EnvConfig(vehicle=self.vehicle, sonar=sensor or "study")
             self.get_logger().info(f"driving with the classical baseline (ArcController), sensor {env.sonar.profile!r}")
-            return ArcController(env.layout, self.vehicle), HeadingSetpoint.SOURCE_BASELINE, env
+            return ArcController(env.layout, self.vehicle, remembered=self.p["remembered_returns"]), \
+                HeadingSetpoint.SOURCE_BASELINE, env
         try:
             # the layout the policy's training config builds, so a file whose recorded layout differs
             # from it is refused naming the field (not by an opaque network size)
