@@ -286,8 +286,8 @@ def remembered_bins(layout, remembered: str = "all") -> np.ndarray:
     every one ("all"), or those that reach outside the scan's field of view ("out_of_view": a bin
     wholly inside it is dropped; none is kept for a 360 deg scan). A first version dropped every bin
     whose centre lay in view, and so what a bin straddling the sector's edge held just outside it
-    (with it `fls`'s driver collided 18 times against 8 in cells 16-23 of the held-out seed; whether
-    that gap was why is not measured yet). Why "out_of_view": the memory is there for what the sonar does not see
+    (`fls`'s driver: 18 collisions against the shipped setting's 8 in cells 16-23 of the held-out
+    seed; 15 with this rule, so for a sector sonar what it remembers in view still counts for something). Why "out_of_view": the memory is there for what the sonar does not see
     now (beside and behind a forward-looking sonar), and a return remembered where the sonar looks
     again is one it no longer sees there: a fish school that has fled (schools flee at 0.8 m/s, so
     a 10 s memory holds a trail of them up to 8 m long), or a noisy range kept as the nearest of
