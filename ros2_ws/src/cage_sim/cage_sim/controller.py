@@ -79,6 +79,7 @@ class ArcController:
         # for each distinct one and read back for every candidate (the same values, 40 % less work).
         self._distinct = DistinctPoints.of(self._traj, self._times)
         self._kept_bins = remembered_bins(self.layout, self.remembered)
+        self._kept_angles = self.layout.memory_angles[self._kept_bins] if len(self._kept_bins) else np.zeros(0)
 
     def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
         """Body-frame rollouts: hold action a for k decisions then fly straight, or fly straight for
@@ -117,9 +118,8 @@ class ArcController:
         ranges, ang = self.layout.ranges_from(obs), self._beams
         bins = int(getattr(self.layout, "memory_bins", 0) or 0)
         if bins and getattr(self.layout, "scan", True):
-            keep = self._kept_bins
-            ranges = np.concatenate([ranges, self.layout.memory_from(obs)[keep]])
-            ang = np.concatenate([ang, (np.arange(bins) * (2 * math.pi / bins))[keep]])
+            ranges = np.concatenate([ranges, self.layout.memory_from(obs)[self._kept_bins]])
+            ang = np.concatenate([ang, self._kept_angles])
         seen = ranges < min(self.layout.max_range * 0.999, reach or self._reach)
         return np.stack([ranges[seen] * np.cos(ang[seen]), ranges[seen] * np.sin(ang[seen])], axis=1)
 
@@ -284,15 +284,17 @@ REMEMBERED = ("all", "out_of_view")
 def remembered_bins(layout, remembered: str = "all") -> np.ndarray:
     """Indices of the memory bins whose returns ``ArcController.returns`` counts beside the scan:
     every one ("all"), or those that reach outside the scan's field of view ("out_of_view": a bin
-    wholly inside it is dropped; none is kept for a 360 deg scan). A first version dropped every bin
-    whose centre lay in view, and so what a bin straddling the sector's edge held just outside it
-    (`fls`'s driver: 18 collisions against the shipped setting's 8 in cells 16-23 of the held-out
-    seed; 15 with this rule, so for a sector sonar what it remembers in view still counts for something). Why "out_of_view": the memory is there for what the sonar does not see
-    now (beside and behind a forward-looking sonar), and a return remembered where the sonar looks
-    again is one it no longer sees there: a fish school that has fled (schools flee at 0.8 m/s, so
-    a 10 s memory holds a trail of them up to 8 m long), or a noisy range kept as the nearest of
-    ten. With every bin, the `multibeam360` driver lost 19 and 26 goals of 2000 more in the two
-    hardest sea cells than with none (docs/notes/sessions.md, session 52)."""
+    wholly inside it is dropped; none is kept for a 360 deg scan).
+
+    Why "out_of_view": the memory is there for what the sonar does not see now (beside and behind a
+    forward-looking sonar), and a return remembered where the sonar looks again is one it no longer
+    sees there: a fish school that has fled (schools flee at 0.8 m/s, so a 10 s memory holds a trail
+    of them up to 8 m long), or a noisy range kept as the nearest of ten. With every bin, the
+    `multibeam360` driver lost 19 and 26 goals of 2000 more in the two hardest sea cells than with
+    none (docs/notes/sessions.md, session 52). A first version dropped every bin whose centre lay in
+    view, and so what a bin straddling the sector's edge held just outside it (`fls`'s driver: 18
+    collisions against the shipped setting's 8 in cells 16-23 of the held-out seed; 15 with this
+    rule, so for a sector sonar what it remembers in view still counts for something)."""
     bins = int(getattr(layout, "memory_bins", 0) or 0)
     if remembered == "all" or not bins or not getattr(layout, "scan", True):
         return np.arange(bins)
