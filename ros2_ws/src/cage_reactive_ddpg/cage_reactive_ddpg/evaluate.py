@@ -242,6 +242,12 @@ def plot_tracks(path: str | Path, scenarios: list[Scenario], results: list[Episo
     plt.close(fig)
 
 
+def remembered_record(a: argparse.Namespace) -> dict:
+    """``{"remembered": ...}`` for the summary and matrix files when it is not the default, else {}:
+    files of every run before the setting existed and of every default run then read alike."""
+    return {"remembered": a.remembered} if a.remembered != "all" else {}
+
+
 def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None, remembered: str = "all"):
     """``baseline`` -> ArcController (over the ``sensor`` profile's scan); else a policy file (None =
     the shipped one), behind the safety shield unless ``shield`` is off (as the policy node runs it).
@@ -384,7 +390,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan,
                    known_map=a.known_map, failed=failed_episodes(res), **({"only": only} if only else {}),
-                   **({"remembered": a.remembered} if a.remembered != "all" else {}))
+                   **remembered_record(a))
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
                        shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)
@@ -523,7 +529,7 @@ def matrix_main(a: argparse.Namespace) -> int:
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
          "sensor": env.sonar.profile, "replan": a.replan, "known_map": a.known_map, "observation": env.layout.to_dict(),
          "policy": policy, "grace": a.grace, **({"only": only} if only else {}),
-         **({"remembered": a.remembered} if a.remembered != "all" else {}), "rows": rows}, indent=1))
+         **remembered_record(a), "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
         mx.plot(rows, a.plot, title)
