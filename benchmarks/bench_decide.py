@@ -11,6 +11,11 @@ Both fly the same missions one after the other; the outcomes are printed too (th
 shields decide differently). Never run as a test.
 
     .venv/bin/python benchmarks/bench_decide.py [--cell 23] [--missions 40] [--seed 2026] [--ref goal_search=0]
+        [--sensor fls] [--remembered all]
+
+``--sensor``: that profile's shipped driver (default: the default driver); ``--remembered``: the
+remembered returns the shipped shield counts; ``--ref remembered=cleared``: a reference that
+differs in that setting only (what clearing the memory costs a decision).
 """
 from __future__ import annotations
 
@@ -40,7 +45,7 @@ def fly(shield, env, scenarios, routes, known_map: bool = True) -> dict:
     times, kinds, outcomes = [], [], {}
     for sc in scenarios:
         m, noise = Mission(sc, env), noise_stream(sc)
-        d = Driver(shield, env.layout, env.vehicle, m.builder, True, m.map_points if known_map else None)
+        d = Driver(shield, env.layout, env.vehicle, m.builder, True, m.map_points if known_map else None, env.sonar)
         watch = ReplanWatch.defaults()
         while True:
             mo = mission_moment(m)
@@ -80,7 +85,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--missions", type=int, default=40)
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--ref", default="goal_search=0",
-                    help="the reference shield: FIELD=0/1 of SafetyShield, or known_map=0 (no known map)")
+                    help="the reference shield: FIELD=0/1 of SafetyShield, known_map=0 (no known map), or "
+                         "remembered=VALUE (the fallback's remembered returns)")
+    ap.add_argument("--sensor", default=None, help="fly that profile's shipped driver (default: the default driver)")
+    ap.add_argument("--remembered", default="all", help="the shipped shield's remembered returns (ArcController)")
     a = ap.parse_args(argv)
     from dataclasses import replace
 
@@ -88,9 +96,12 @@ def main(argv: list[str] | None = None) -> int:
     from cage_reactive_ddpg.matrix import MATRICES
     from cage_reactive_ddpg.missions import waypoint_fn
     field, value = a.ref.split("=")
-    shield, _, meta = load_driver(None)
+    shield, _, meta = load_driver(None, sensor=a.sensor, remembered=a.remembered)
     ref_map = field != "known_map" or bool(int(value))
-    reference = shield if field == "known_map" else replace(shield, **{field: bool(int(value))})
+    if field == "remembered":
+        reference = replace(shield, fallback=replace(shield.fallback, remembered=value))
+    else:
+        reference = shield if field == "known_map" else replace(shield, **{field: bool(int(value))})
     env = driver_env(meta, argparse.Namespace(motion=None, sensor=None))
     routes, cell = waypoint_fn("rrt"), MATRICES["sea"][a.cell]
     scs = []

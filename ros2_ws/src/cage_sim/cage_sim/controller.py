@@ -63,7 +63,7 @@ class ArcController:
     pursuit: bool = False           # one more candidate: re-aim at the waypoint at every decision
     handover: float = 0.0           # m: an intermediate waypoint this near counts as reached (0: off)
     handover_tail: int = 5          # decisions still checked after reaching it (2: 3x the collisions, session 39)
-    remembered: str = "all"         # which remembered returns count (``returns``): "all" or "out_of_view"
+    remembered: str = "all"         # which remembered returns count (``returns``): one of REMEMBERED
 
     def __post_init__(self) -> None:
         if self.remembered not in REMEMBERED:
@@ -110,15 +110,33 @@ class ArcController:
         plus the comfort distance."""
         return self._reach
 
-    def returns(self, obs: np.ndarray, reach: float | None = None) -> np.ndarray:
+    @property
+    def reads_memory(self) -> bool:
+        """Whether ``returns`` reads any memory bin: the kept ones beside a scan, or the whole memory
+        that stands for the scan (a layout without one)."""
+        bins = int(getattr(self.layout, "memory_bins", 0) or 0)
+        return bool(bins) and (not getattr(self.layout, "scan", True) or len(self._kept_bins) > 0)
+
+    def returns(self, obs: np.ndarray, reach: float | None = None, memory: np.ndarray | None = None) -> np.ndarray:
         """Sonar returns within ``reach`` m (default: what the rollouts can come near), as body-frame
         points (K, 2): the obstacle points the manoeuvres are checked against. With a v2 layout that
         has a memory, the remembered returns (360 deg, e.g. beside and behind a forward-looking sonar)
-        count too; with ``remembered`` "out_of_view" only those outside the scan's field of view."""
-        ranges, ang = self.layout.ranges_from(obs), self._beams
+        count too; with ``remembered`` "out_of_view" only those outside the scan's field of view.
+        ``memory``: a memory histogram (m, the layout's bins) read in place of the observation's
+        (with "cleared", the vehicle's memory without the returns it has since seen past or passed
+        through: ``Driver.remembered_now``); without one the observation's is read."""
         bins = int(getattr(self.layout, "memory_bins", 0) or 0)
-        if bins and getattr(self.layout, "scan", True):
-            ranges = np.concatenate([ranges, self.layout.memory_from(obs)[self._kept_bins]])
+        scan = getattr(self.layout, "scan", True)
+        if memory is None:
+            ranges = self.layout.ranges_from(obs)
+            remembered = self.layout.memory_from(obs) if bins and scan else None
+        else:
+            remembered = np.asarray(memory, dtype=np.float64)
+            ranges = self.layout.ranges_from(obs) if scan else remembered
+            remembered = remembered if scan else None
+        ang = self._beams
+        if remembered is not None:
+            ranges = np.concatenate([ranges, remembered[self._kept_bins]])
             ang = np.concatenate([ang, self._kept_angles])
         seen = ranges < min(self.layout.max_range * 0.999, reach or self._reach)
         return np.stack([ranges[seen] * np.cos(ang[seen]), ranges[seen] * np.sin(ang[seen])], axis=1)
@@ -278,23 +296,29 @@ class ArcController:
                                               "pursuit", "handover", "handover_tail")}
 
 
-REMEMBERED = ("all", "out_of_view")
+REMEMBERED = ("all", "out_of_view", "cleared")
 
 
 def remembered_bins(layout, remembered: str = "all") -> np.ndarray:
     """Indices of the memory bins whose returns ``ArcController.returns`` counts beside the scan:
-    every one ("all"), or those that reach outside the scan's field of view ("out_of_view": a bin
-    wholly inside it is dropped; none is kept for a 360 deg scan).
+    every one ("all"), or those that reach outside the scan's field of view ("out_of_view", and
+    "cleared", which reads them from a memory without the returns since seen past or passed through:
+    ``Driver.remembered_now``): a bin wholly inside the view is dropped; none is kept for a
+    360 deg scan. A layout without a scan reads its memory as the scan: every bin.
 
     Why "out_of_view": the memory is there for what the sonar does not see now (beside and behind a
     forward-looking sonar), and a return remembered where the sonar looks again is one it no longer
     sees there: a fish school that has fled (schools flee at 0.8 m/s, so a 10 s memory holds a trail
     of them up to 8 m long), or a noisy range kept as the nearest of ten. With every bin, the
     `multibeam360` driver lost 19 and 26 goals of 2000 more in the two hardest sea cells than with
-    none (docs/notes/sessions.md, session 52). A first version dropped every bin whose centre lay in
-    view, and so what a bin straddling the sector's edge held just outside it (`fls`'s driver: 18
-    collisions against the shipped setting's 8 in cells 16-23 of the held-out seed; 15 with this
-    rule, so for a sector sonar what it remembers in view still counts for something)."""
+    none (docs/notes/sessions.md, session 52).
+
+    Why "cleared": with "out_of_view", `fls`'s driver collided about twice as often (15 against 8 in
+    cells 16-23 of the held-out seed). Its vehicle now entered the trail a fled school had left
+    ahead of it, and once the trail lay beside and behind it, out of the sector, the shield met it
+    again, remembered a few centimetres away: no manoeuvre looked safe, and the one it flew met a
+    real square or the net (all 10 such collisions, session 53). Returns the sonar has since seen
+    past, or the vehicle passed through, are no school and no wall."""
     bins = int(getattr(layout, "memory_bins", 0) or 0)
     if remembered == "all" or not bins or not getattr(layout, "scan", True):
         return np.arange(bins)

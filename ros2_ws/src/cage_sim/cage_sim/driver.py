@@ -23,8 +23,15 @@ from .observation import ObservationBuilder
 from .perception import Perception, ReturnMotion, body_drift, perceive
 from .route import RouteTracker, StallWatch
 from .shield import Commitment, SafetyShield
-from .sonar import Scan
+from .sonar import Scan, SonarModel, make_sonar
 from .vehicle import VehicleParams
+
+
+#: The remembered returns the flown drivers' shield and the classical baseline count (``evaluate
+#: --remembered``, policy_node's ``remembered_returns``; ``ArcController.remembered``): since session
+#: 53 "cleared". ``ArcController``'s own default stays "all": what the residual policies' base
+#: controllers were trained with, and what their raw flights keep.
+DEFAULT_REMEMBERED = "cleared"
 
 
 @dataclass(frozen=True)
@@ -52,19 +59,43 @@ class Driver:
     drift only from a v2 velocity), the drift-free reference of the evaluator. Behind a shield whose
     ``recover`` is on, a ``StallWatch`` hands a policy that makes no progress to the controller.
     ``known``: the known map (``MapPoints``) the shield keeps clear of beside the returns (None: the
-    returns alone); the policy, a residual policy's base and the baseline never see it."""
+    returns alone); the policy, a residual policy's base and the baseline never see it.
+    ``sonar``: the sonar the scans come from (None: the layout's profile as defined); its beams'
+    width says what a beam has seen past when the controller reads the memory ``remembered="cleared"``
+    (beside a 360 deg scan it reads none: nothing is cleared, nothing paid)."""
 
     def __init__(self, policy: Policy, layout, vehicle: VehicleParams | None = None,
                  builder: ObservationBuilder | None = None, perception: bool = True,
-                 known: MapPoints | None = None):
+                 known: MapPoints | None = None, sonar: SonarModel | None = None):
         self.policy = policy
         self.known = known
         self.layout = layout
         self.vehicle = vehicle or VehicleParams()
-        self.builder = builder or ObservationBuilder(layout)
+        ctrl = controller_of(policy)
+        self._cone = 0.5 * (sonar or make_sonar(layout.profile)).beam_width \
+            if perception and ctrl is not None and ctrl.remembered == "cleared" and ctrl.reads_memory else None
+        self.use_builder(builder or ObservationBuilder(layout))
         self.motion = ReturnMotion() if perception else None
         self.stall = StallWatch() if perception else None     # used behind a shield with ``recover`` on
         self.commit = Commitment() if perception else None    # the shield's manoeuvre in hand (shield.py)
+
+    def use_builder(self, builder: ObservationBuilder) -> None:
+        """Read the memory of ``builder``, the one that builds this vehicle's observations (a
+        mission's, offline): with ``remembered="cleared"`` the controller reads what it cleared."""
+        self.builder = builder
+        if self._cone is not None and builder.memory is not None:
+            builder.clear_with(self._cone)
+
+    def remembered_now(self, mo: "Moment") -> np.ndarray | None:
+        """The memory histogram without its cleared returns at this decision, for a controller that
+        reads it (``remembered="cleared"``), else None (the observation's memory is read)."""
+        b = self.builder
+        if self._cone is None or b.memory is None:
+            return None
+        if b.last_t != mo.t:
+            raise RuntimeError("remembered 'cleared': this observation was not built by the driver's builder "
+                               "(Driver.use_builder with the builder that builds it)")
+        return b.memory.histogram(*mo.pose, include_cleared=False)
 
     def reset(self) -> None:
         """A new mission: forget the memory, the previous scan's returns and the route's progress."""
@@ -152,7 +183,9 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
     for d, o, mo in zip(drivers, obs, moments):
         dist, err = ctrl.layout.waypoint_from(o)
         drift = body_drift(mo.v_ground, d.vehicle.speed) if mo.v_ground is not None else None
-        seen.append((float(dist), float(err), perceive(ctrl.returns(o), mo.pose, mo.t, drift, mo.final, d.motion)))
+        mem = d.remembered_now(mo)
+        seen.append((float(dist), float(err), perceive(ctrl.returns(o, memory=mem), mo.pose, mo.t, drift, mo.final,
+                                                       d.motion)))
     if base is None and shield is None:          # the classical baseline
         return np.clip([ctrl.decide(*s) for s in seen], -1.0, 1.0), np.zeros(n, dtype=bool)
     # The known map's points near each vehicle, for the shield (as far out as the returns are kept).

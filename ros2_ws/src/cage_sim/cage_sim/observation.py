@@ -281,9 +281,22 @@ class ObservationBuilder:
         bins = getattr(layout, "memory_bins", 0)
         self.memory = ReturnMemory(bins, layout.memory_horizon) if bins else None
         self.last_t = -math.inf
+        self.cone: float | None = None     # beams' half-width (rad) when clearing is on (``clear_with``)
+        self._last_xy: tuple[float, float] | None = None
+
+    def clear_with(self, half_width: float) -> None:
+        """Mark remembered returns cleared as beams see past them and the vehicle passes through them
+        (``ReturnMemory.clear_seen_past`` / ``clear_swept``), for readers of
+        ``memory.histogram(..., include_cleared=False)``; beams ``half_width`` rad either side of
+        their axis. Off by default: the policy's observation is the same either way, and nobody
+        else pays for it."""
+        if not half_width >= 0:
+            raise ValueError(f"beam half-width must be >= 0 rad, got {half_width!r}")
+        self.cone = float(half_width)
 
     def reset(self) -> None:
         self.last_t = -math.inf
+        self._last_xy = None
         if self.memory is not None:
             self.memory.reset()
 
@@ -305,6 +318,11 @@ class ObservationBuilder:
             st = np.full(n, float(t)) if stamps is None else np.asarray(stamps, dtype=float)
             org = np.tile([x, y, yaw], (n, 1)) if origins is None else np.asarray(origins, dtype=float)
             sel = np.ones(n, dtype=bool) if new is None else np.asarray(new, dtype=bool)
+            if self.cone is not None:
+                if self._last_xy is not None:
+                    self.memory.clear_swept(self._last_xy, (x, y))
+                self.memory.clear_seen_past(r[sel], np.asarray(ang)[sel], org[sel], self.cone, lay.max_range)
+            self._last_xy = (float(x), float(y))
             self.memory.add(r[sel], np.asarray(ang)[sel], org[sel], st[sel])
             self.memory.prune(t)
             hist = self.memory.histogram(x, y, yaw)

@@ -40,6 +40,7 @@ def drive_episode(env: CageNavEnv, driver: Driver, seed: int | None = None,
 
     def before():
         driver.reset()
+        driver.use_builder(env.mission.builder)     # the memory the observations are built with
         driver.known = env.mission.map_points if known_map else None
     return _fly(env, act, seed, scenario, before=before)
 
