@@ -65,15 +65,22 @@ def test_bad_parameters_are_refused_with_one_line_naming_them(pkg, exe, arg):
 
 
 def test_remembered_returns_reaches_the_shield_and_the_baseline():
-    """``remembered_returns:=out_of_view`` is the perception setting of the shield's fallback (and of
-    the baseline), as ``evaluate --remembered`` sets it offline."""
+    """``remembered_returns`` is the perception setting of the shield's fallback (and of the
+    baseline), as ``evaluate --remembered`` sets it offline; by default "cleared", with the node's
+    own memory clearing what the sonar's beams (the policy's profile's width) see past."""
     import rclpy
     from cage_reactive_ddpg.nodes.policy_node import PolicyNode
-    for extra, of in (((), lambda n: n.driver.policy.fallback), (("policy:=baseline",), lambda n: n.driver.policy)):
-        rclpy.init(args=["--ros-args", "-p", "remembered_returns:=out_of_view", *[a for p in extra for a in ("-p", p)]])
+    for value, extra, of in (("out_of_view", (), lambda n: n.driver.policy.fallback),
+                             ("out_of_view", ("policy:=baseline",), lambda n: n.driver.policy),
+                             (None, ("sensor:=fls",), lambda n: n.driver.policy.fallback)):
+        chosen = ["-p", f"remembered_returns:={value}"] if value else []
+        rclpy.init(args=["--ros-args", *chosen, *[a for p in extra for a in ("-p", p)]])
         try:
             node = PolicyNode()
-            assert of(node).remembered == "out_of_view"
+            assert of(node).remembered == (value or "cleared")
+            assert (node.driver.builder.cone is not None) == (value is None)     # fls: a memory to clear
+            if value is None:
+                assert node.driver.builder.cone == 0.5 * node.sonar.beam_width
             node.destroy_node()
         finally:
             rclpy.try_shutdown()

@@ -24,9 +24,9 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
-from cage_sim.controller import ArcController, Policy
+from cage_sim.controller import REMEMBERED, ArcController, Policy
 from cage_sim.mission import OUTCOMES, EnvConfig, Mission, noise_stream, observe_batch
-from cage_sim.driver import Driver, decide_batch, fallback_for, mission_moment
+from cage_sim.driver import DEFAULT_REMEMBERED, Driver, decide_batch, fallback_for, mission_moment
 from cage_sim.route import ReplanWatch
 from cage_sim.scenarios import Scenario
 from cage_sim.shield import SafetyShield
@@ -97,7 +97,7 @@ def run_missions(policy: Policy, scenarios: list[Scenario], config: EnvConfig, b
         for m in ms:
             m.max_steps = math.ceil((1.0 + grace) * m.max_steps)
         drivers = [Driver(policy, config.layout, config.vehicle, m.builder, perception,
-                          m.map_points if mapped else None) for m in ms]
+                          m.map_points if mapped else None, config.sonar) for m in ms]
         watches = [ReplanWatch.defaults() for _ in ms] if replan is not None else None
         live = list(range(len(ms)))
         while live:
@@ -242,13 +242,20 @@ def plot_tracks(path: str | Path, scenarios: list[Scenario], results: list[Episo
     plt.close(fig)
 
 
-def remembered_record(a: argparse.Namespace) -> dict:
-    """``{"remembered": ...}`` for the summary and matrix files when it is not the default, else {}:
-    files of every run before the setting existed and of every default run then read alike."""
-    return {"remembered": a.remembered} if a.remembered != "all" else {}
+#: The drivers whose perception ``--remembered`` sets (a raw policy reads its observation; a raw
+#: residual policy's base keeps the setting it was trained with).
+READS_REMEMBERED = ("shield", "baseline")
 
 
-def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None, remembered: str = "all"):
+def remembered_record(a: argparse.Namespace, drivers) -> dict:
+    """``{"remembered": ...}`` for the summary and matrix files of a run that flies a shield or the
+    baseline with another setting than "all", else {}: files from before the setting existed (all
+    "all") and raw runs then read alike."""
+    return {"remembered": a.remembered} if a.remembered != "all" and set(drivers) & set(READS_REMEMBERED) else {}
+
+
+def load_driver(spec: str | None, shield: bool = True, sensor: str | None = None,
+                remembered: str = DEFAULT_REMEMBERED):
     """``baseline`` -> ArcController (over the ``sensor`` profile's scan); else a policy file (None =
     the shipped one), behind the safety shield unless ``shield`` is off (as the policy node runs it).
     ``remembered``: which remembered returns the baseline's or the shield's perception counts."""
@@ -329,10 +336,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="the shield keeps clear of the mission's known map (known obstacles, nominal net circle) "
                          "beside the sonar's returns, as policy_node does with the map topic (default on; off: "
                          "the returns alone, the shield before session 45)")
-    ap.add_argument("--remembered", default="all", choices=["all", "out_of_view"],
-                    help="which remembered returns the shield and the baseline count beside the scan: all (default), "
-                         "or only those outside the scan's field of view (none for a 360 deg sonar), as "
-                         "policy_node's remembered_returns parameter (session 52)")
+    ap.add_argument("--remembered", default=DEFAULT_REMEMBERED, choices=list(REMEMBERED),
+                    help="which remembered returns the shield and the baseline count beside the scan: cleared "
+                         "(default since session 53: those outside the scan's field of view that the sonar has "
+                         "not since seen past nor the vehicle passed through), out_of_view (those outside the "
+                         "field of view; session 52), or all (every one, the default before session 53); none "
+                         "beside a 360 deg scan with cleared and out_of_view; as policy_node's remembered_returns")
     ap.add_argument("--replan", default="off", choices=["off", "on"],
                     help="on: ask for a new plan under way when policy_node would (40 decisions without "
                          "progress, 8 m off the route), as the node graph does; off: one plan per mission")
@@ -390,7 +399,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     summary.update(driver=name, scenario=a.scenario, seed=a.seed, motion=motion, planner=a.planner, replan=a.replan,
                    known_map=a.known_map, failed=failed_episodes(res), **({"only": only} if only else {}),
-                   **remembered_record(a))
+                   **remembered_record(a, ["shield" if a.shield == "on" else "baseline" if a.policy == "baseline"
+                                           else "raw"]))
     if isinstance(driver, SafetyShield):
         summary.update(shield_interventions=driver.interventions, shield_decisions=driver.decisions,
                        shield_approaches=driver.approaches, shield_recoveries=driver.recoveries)
@@ -449,10 +459,11 @@ def _reused(a: argparse.Namespace, name: str, motion: str, sensor: str, observat
     for path in filter(None, (a.reuse or "").split(",")):
         old = json.loads(Path(path).read_text())
         keys = [("matrix", name), ("seed", a.seed), ("episodes", a.episodes), ("planner", a.planner),
-                ("motion", motion), ("sensor", sensor), ("replan", a.replan), ("observation", observation),
-                ("remembered", a.remembered)]
+                ("motion", motion), ("sensor", sensor), ("replan", a.replan), ("observation", observation)]
         if any(r["driver"] == "shield" for r in old["rows"]):   # the map changes only the shield's rows
             keys.append(("known_map", a.known_map))
+        if any(r["driver"] in READS_REMEMBERED for r in old["rows"]):
+            keys.append(("remembered", a.remembered))
         for key, mine in keys:
             if old.get(key, unrecorded.get(key)) != mine:
                 raise ValueError(f"--reuse {path}: {key} is {old.get(key)!r} there, {mine!r} here")
@@ -510,6 +521,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     except (ValueError, OSError, RuntimeError) as err:
         print(f"evaluate: {err}", file=sys.stderr)
         return 2
+    flown = {r["driver"] for r in rows}          # this run's and the merged files' drivers
     prefix = Path(a.out or f"out/matrix_{name}")
     prefix.parent.mkdir(parents=True, exist_ok=True)
     policy = str(a.policy or SHIPPED_LABEL)
@@ -519,7 +531,7 @@ def matrix_main(a: argparse.Namespace) -> int:
     title = (f"matrix {name}: sensor {env.sonar.profile}, {per_cell} per cell, seed {a.seed}, "
              f"planner {a.planner}, replan {a.replan}, known map {a.known_map}, policy {Path(str(a.policy or 'policy.safetensors (shipped)')).name}"
              + (f", late goals within {1 + a.grace:g} x the budget" if a.grace else "")
-             + (f", remembered returns {a.remembered}" if a.remembered != "all" else ""))
+             + (f", remembered returns {a.remembered}" if remembered_record(a, flown) else ""))
     md = mx.markdown(rows, title)
     print(md)
     out = output_paths(prefix)
@@ -529,7 +541,7 @@ def matrix_main(a: argparse.Namespace) -> int:
         {"matrix": name, "episodes": a.episodes, "seed": a.seed, "planner": a.planner, "motion": motion,
          "sensor": env.sonar.profile, "replan": a.replan, "known_map": a.known_map, "observation": env.layout.to_dict(),
          "policy": policy, "grace": a.grace, **({"only": only} if only else {}),
-         **remembered_record(a), "rows": rows}, indent=1))
+         **remembered_record(a, flown), "rows": rows}, indent=1))
     if a.plot:
         Path(a.plot).parent.mkdir(parents=True, exist_ok=True)
         mx.plot(rows, a.plot, title)

@@ -21,7 +21,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .evaluate import wilson
+from .evaluate import READS_REMEMBERED, wilson
 from .matrix import driver_rows, parse_cells
 
 #: What must match for two files to be sets of the same missions' kind (the seed must differ).
@@ -48,9 +48,10 @@ def read_group(spec: str) -> tuple[str, list[dict]]:
         except ValueError as err:
             raise SetsError(f"{label}: {err}") from None
         rows = {int(r["cell"]): r for r in chosen}
-        kind = {k: data.get(k) for k in SAME_KIND}
+        reads = any(r["driver"] in READS_REMEMBERED for r in chosen)   # a raw row: any setting's file
+        kind = {k: data.get(k) for k in SAME_KIND if k != "remembered" or reads}
         if sets and kind != sets[0]["kind"]:
-            diff = [k for k in SAME_KIND if kind[k] != sets[0]["kind"][k]]
+            diff = [k for k in SAME_KIND if kind.get(k) != sets[0]["kind"].get(k)]
             raise SetsError(f"{label}: {path} differs from {sets[0]['path']} in {', '.join(diff)}")
         if any(s["seed"] == data.get("seed") for s in sets):
             raise SetsError(f"{label}: seed {data.get('seed')} given twice ({path}): the same missions")

@@ -32,7 +32,7 @@ from collections import OrderedDict
 import numpy as np
 from cage_planner_msgs.msg import CageMap, HeadingSetpoint, Mission, MissionEvent
 from cage_sim.controller import REMEMBERED, ArcController
-from cage_sim.driver import Driver, fallback_for
+from cage_sim.driver import DEFAULT_REMEMBERED, Driver, fallback_for
 from cage_sim.map_points import MapPoints
 from cage_sim.mission import EnvConfig
 from cage_sim.nodes.node_common import (VEHICLE_PARAMETERS, check, decision_period_ns, declare, declare_vehicle,
@@ -80,7 +80,7 @@ class PolicyNode(Node):
                          waypoint_radius=EnvConfig().waypoint_radius,
                          frame_id="map")
         self.p.update(declare(self, sensor_frame_id="base_link", liveness_timeout=2.0, sensor="",
-                              remembered_returns="all"))
+                              remembered_returns=DEFAULT_REMEMBERED))
         self.check_parameters()
         self.scan_timeout_ns = int(round(self.p["scan_timeout"] * 1e9))
         self.last_scan_ns: int | None = None          # sim time of the last scan: the decision watchdog
@@ -89,7 +89,7 @@ class PolicyNode(Node):
         self.missions_seen = 0
         policy, self.source, env = self.load(self.p["policy"])
         self.layout, self.sonar = env.layout, env.sonar    # the policy's own observation and sensor profile
-        self.driver = Driver(policy, self.layout, self.vehicle)
+        self.driver = Driver(policy, self.layout, self.vehicle, sonar=self.sonar)
         self.scan_spec = ScanSpec.from_sonar(self.sonar, self.p["sensor_frame_id"], self.p["max_invalid_fraction"])
         self.twists: OrderedDict[int, tuple[float, float]] = OrderedDict()   # DVL: body velocity over ground
         self.last_beam = -math.inf                    # latest beam time of the scan last decided on
