@@ -8,9 +8,9 @@ into the body frame at each decision gives the policy, and the shield's rollouts
 of everything seen lately, whatever the number of obstacles (the study's open question).
 Cleared returns: the memory also marks the returns the sonar has since seen past (a beam's echo, or
 its silence, farther out along the same bearing) and those the vehicle has since passed through
-(within ``SWEEP_RADIUS`` of its track). Such a return is no longer there: a fish school that fled (a
-school keeps 2-5 m from the vehicle at up to 0.8 m/s, so a 10 s memory holds a trail of it up to 8 m
-long along the vehicle's way), or a range kept as the nearest of ten noisy ones. The policies read
+(within ``SWEEP_RADIUS`` of its track). Such a return is no longer there: a fish school that fled
+(schools flee at up to 0.8 m/s, so a 10 s memory holds a trail of one up to 8 m long, often along the
+vehicle's way), or a range kept as the nearest of ten noisy ones. The policies read
 every remembered return (what they were trained on); the shield and the baseline with
 ``remembered="cleared"`` read only the uncleared ones (``histogram(..., include_cleared=False)``).
 The histogram has ``bins`` sectors, bin ``i`` centred on body angle ``i * 360 / bins`` (0 = ahead, left
