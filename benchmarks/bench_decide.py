@@ -80,6 +80,8 @@ def groups(run: dict) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from cage_sim.controller import REMEMBERED
+    from cage_sim.driver import DEFAULT_REMEMBERED
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cell", type=int, default=23)
     ap.add_argument("--missions", type=int, default=40)
@@ -88,7 +90,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the reference shield: FIELD=0/1 of SafetyShield, known_map=0 (no known map), or "
                          "remembered=VALUE (the fallback's remembered returns)")
     ap.add_argument("--sensor", default=None, help="fly that profile's shipped driver (default: the default driver)")
-    ap.add_argument("--remembered", default="all", help="the shipped shield's remembered returns (ArcController)")
+    ap.add_argument("--remembered", default=DEFAULT_REMEMBERED, choices=list(REMEMBERED),
+                    help="the shipped shield's remembered returns (default: the flown drivers')")
     a = ap.parse_args(argv)
     from dataclasses import replace
 

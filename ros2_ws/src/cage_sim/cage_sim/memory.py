@@ -82,21 +82,19 @@ class ReturnMemory:
         o = np.asarray(origins, dtype=float).reshape(-1, 3)[use]
         axes, reach = o[:, 2] + np.asarray(angles, dtype=float)[use], reach[use]
         if np.all(o == o[0]):
-            # One origin (an electronic sonar): each point's bearing and range once, and only the
-            # points some beam reaches past; the same values as the general case below.
+            # One origin (an electronic sonar): each point's bearing and range once ([1, C]), and
+            # only the points some beam reaches past; the same values as from every beam's origin.
             d = self.points - o[0, :2]
             rng = np.hypot(d[:, 0], d[:, 1])
             cand = np.flatnonzero(rng < reach.max() - margin)
-            bearing = np.arctan2(d[cand, 1], d[cand, 0])[None, :] - axes[:, None]    # [K, C]
-            off = np.abs((bearing + math.pi) % (2 * math.pi) - math.pi)
-            past = (off <= half_width) & (rng[cand][None, :] < reach[:, None] - margin)
-            self.cleared[cand] |= past.any(axis=0)
-            return
-        d = self.points[None, :, :] - o[:, None, :2]                                     # [K, M, 2]
-        bearing = np.arctan2(d[..., 1], d[..., 0]) - axes[:, None]
-        off = np.abs((bearing + math.pi) % (2 * math.pi) - math.pi)
-        past = (off <= half_width) & (np.hypot(d[..., 0], d[..., 1]) < reach[:, None] - margin)
-        self.cleared |= past.any(axis=0)
+            bearing, rng = np.arctan2(d[cand, 1], d[cand, 0])[None, :], rng[cand][None, :]
+        else:                                             # each beam from its own origin: [K, M]
+            cand = slice(None)
+            d = self.points[None, :, :] - o[:, None, :2]
+            bearing, rng = np.arctan2(d[..., 1], d[..., 0]), np.hypot(d[..., 0], d[..., 1])
+        off = np.abs((bearing - axes[:, None] + math.pi) % (2 * math.pi) - math.pi)
+        past = (off <= half_width) & (rng < reach[:, None] - margin)
+        self.cleared[cand] |= past.any(axis=0)
 
     def clear_swept(self, start, end, radius: float = SWEEP_RADIUS) -> None:
         """Mark the remembered returns within ``radius`` of the vehicle's track from ``start`` to
