@@ -17,6 +17,13 @@ from cage_sim.sonar import make_sonar
 HALF = math.radians(1.0)
 
 
+class Residual:
+    """A learned policy that moves ``residual_base``'s action (the attribute ``policy.LoadedPolicy`` has)."""
+
+    def __init__(self, base: ArcController):
+        self.residual_base = base
+
+
 def one_point(x: float, y: float) -> ReturnMemory:
     mem = ReturnMemory(bins=72, horizon=10.0)
     r, a = math.hypot(x, y), math.atan2(y, x)
@@ -114,6 +121,10 @@ def test_the_driver_clears_only_for_a_controller_that_reads_the_cleared_memory()
         assert Driver(ctrl, lay, veh, sonar=config.sonar).builder.cone == cone          # the baseline too
     ctrl = ArcController(lay, veh, remembered="cleared")
     assert Driver(ctrl, lay, veh, perception=False).builder.cone is None    # reads the observation alone
+    # A raw residual policy: its base perceives (as in decide_batch), so a base reading the cleared
+    # memory gets it cleared, not the observation's memory filtered by bins alone.
+    assert Driver(Residual(ctrl), lay, veh, sonar=config.sonar).builder.cone == 0.5 * config.sonar.beam_width
+    assert Driver(Residual(ArcController(lay, veh)), lay, veh, sonar=config.sonar).builder.cone is None
     wide = make_sonar("fls", beam_width_deg=4.0)
     assert math.isclose(Driver(ctrl, lay, veh, sonar=wide).builder.cone, math.radians(2.0))
     with pytest.raises(ValueError, match="half-width"):

@@ -61,7 +61,8 @@ class Driver:
     ``known``: the known map (``MapPoints``) the shield keeps clear of beside the returns (None: the
     returns alone); the policy, a residual policy's base and the baseline never see it.
     ``sonar``: the sonar the scans come from (None: the layout's profile as defined); its beams'
-    width says what a beam has seen past when the controller reads the memory ``remembered="cleared"``
+    width says what a beam has seen past when the controller that perceives (the shield's or the
+    baseline's, else a raw residual policy's base) reads the memory ``remembered="cleared"``
     (beside a 360 deg scan it reads none: nothing is cleared, nothing paid)."""
 
     def __init__(self, policy: Policy, layout, vehicle: VehicleParams | None = None,
@@ -71,7 +72,7 @@ class Driver:
         self.known = known
         self.layout = layout
         self.vehicle = vehicle or VehicleParams()
-        ctrl = controller_of(policy)
+        ctrl = controller_of(policy) or residual_base(policy)   # who perceives (as decide_batch)
         self._cone = 0.5 * (sonar or make_sonar(layout.profile)).beam_width \
             if perception and ctrl is not None and ctrl.remembered == "cleared" and ctrl.reads_memory else None
         self.use_builder(builder or ObservationBuilder(layout))
