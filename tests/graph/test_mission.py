@@ -43,7 +43,7 @@ def offline(policy, scenario="full_cage", seed=0, config: EnvConfig | None = Non
     return drive_episode(env, Driver(policy, config.layout, config.vehicle), seed=seed)
 
 
-FLS = ROOT / "ros2_ws/src/cage_reactive_ddpg/cage_reactive_ddpg/weights/policy_fls.safetensors"
+FLS = ROOT / "ros2_ws/src/cage_reactive_ddpg/cage_reactive_ddpg/weights/policy_fls_s54.safetensors"   # fls's driver (policy.DRIVERS)
 CURRENT = "cage?current=0.25&obstacles=small"   # 0.25 m/s inside the pen (varying), small obstacles
 
 

@@ -200,7 +200,7 @@ def test_each_profile_has_a_shipped_driver_loaded_when_no_file_is_named():
         load_policy(profile="sidescan")
 
 
-@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_fls_near", "fls"), ("policy_fls_near_s3", "fls"),
+@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_fls_s54", "fls"), ("policy_fls_near", "fls"), ("policy_fls_near_s3", "fls"),
                                            ("policy_mb360", "multibeam360"),
                                            ("policy_mb360_near", "multibeam360"),
                                            ("policy_scanning", "scanning"), ("policy_scanning_near", "scanning")])

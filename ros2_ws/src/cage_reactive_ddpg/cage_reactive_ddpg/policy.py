@@ -38,7 +38,7 @@ SHIPPED = "policy.safetensors"
 # Each sensor profile's shipped driver: the weights file flown for that profile when none is named
 # (``policy_node`` with ``sensor:=`` alone, ``run_mission.sh --sensor``, ``evaluate --sensor``). The
 # one place that says which of a profile's shipped files is its driver; README "Shipped policies" says why.
-DRIVERS = {"study": SHIPPED, "fls": "policy_fls.safetensors", "multibeam360": "policy_mb360.safetensors",
+DRIVERS = {"study": SHIPPED, "fls": "policy_fls_s54.safetensors", "multibeam360": "policy_mb360.safetensors",
            "scanning": "policy_scanning_near.safetensors"}
 
 
