@@ -72,7 +72,7 @@ class Driver:
         self.known = known
         self.layout = layout
         self.vehicle = vehicle or VehicleParams()
-        ctrl = controller_of(policy) or residual_base(policy)   # who perceives (as decide_batch)
+        ctrl = perceiver(policy)
         self._cone = 0.5 * (sonar or make_sonar(layout.profile)).beam_width \
             if perception and ctrl is not None and ctrl.remembered == "cleared" and ctrl.reads_memory else None
         self.use_builder(builder or ObservationBuilder(layout))
@@ -140,6 +140,13 @@ def residual_base(policy) -> ArcController | None:
     return getattr(policy, "residual_base", None)
 
 
+def perceiver(policy: Policy) -> ArcController | None:
+    """The controller whose perception a driver flies: the shield's fallback or the baseline, else a
+    raw residual policy's base (None: a plain raw policy, which reads its observation alone). One
+    answer for ``Driver`` (whether to clear the memory) and ``decide_batch`` (whose returns)."""
+    return controller_of(policy) or residual_base(policy)
+
+
 def fallback_for(policy, layout, vehicle: VehicleParams | None = None, remembered: str = "all") -> ArcController:
     """The shield's fallback controller for ``policy``: a residual policy's base's parameters (the
     controller it learnt to correct; ``decide_batch`` then decides once for both), else the default.
@@ -173,7 +180,7 @@ def decide_batch(drivers: Sequence[Driver], obs: np.ndarray, moments: Sequence[M
     shield = policy if isinstance(policy, SafetyShield) else None
     learned = shield.policy if shield is not None else policy
     base = residual_base(learned)
-    ctrl = controller_of(policy) or base
+    ctrl = perceiver(policy)
     n = len(drivers)
     if ctrl is None or drivers[0].motion is None:
         before = getattr(policy, "interventions", 0)
