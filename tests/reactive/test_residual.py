@@ -128,6 +128,26 @@ def test_the_base_controller_is_the_one_recorded_and_the_shield_falls_back_to_it
     assert fallback_for(ArcController(ENV.layout, pursuit=True), ENV.layout).pursuit is False   # not residual
 
 
+def test_the_memory_the_base_counted_is_recorded_and_loaded(tmp_path):
+    """A base trained reading the cleared memory (``expert_remembered: cleared``) records it and loads
+    with it, so raw flights perceive as in training; absent (files before session 55): every
+    remembered return; an unknown value is refused, naming the field."""
+    fls = EnvConfig(sonar="fls", velocity=True, memory_bins=72)
+    cfg = {"config": {"sensor": "fls", "observation": "v2", "velocity": True, "memory_bins": 72}}
+    save_policy(tmp_path / "c.safetensors", _actor(fls.layout.size + 1), cfg, fls.layout,
+                base=ArcController(fls.layout, remembered="cleared"))
+    meta = json.loads((tmp_path / "c.json").read_text())
+    assert meta["residual_base"]["remembered"] == "cleared"
+    assert load_policy(tmp_path / "c.safetensors").residual_base.remembered == "cleared"
+    del meta["residual_base"]["remembered"]
+    (tmp_path / "c.json").write_text(json.dumps(meta))
+    assert load_policy(tmp_path / "c.safetensors").residual_base.remembered == "all"
+    meta["residual_base"]["remembered"] = "some"
+    (tmp_path / "c.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyLoadError, match="residual_base.remembered is 'some'"):
+        load_policy(tmp_path / "c.safetensors")
+
+
 def test_a_zero_residual_flies_the_flown_baseline(tmp_path):
     """Same missions (current, fleeing schools, small obstacles), the evaluator's path with
     perception: the residual policy with a zero residual ends every mission as the baseline does,

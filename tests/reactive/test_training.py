@@ -260,6 +260,15 @@ def test_bad_sensor_settings_are_refused_naming_the_setting(settings, expect):
         config_mod.build(overrides={"sensor": "multibeam360", "sensor_settings": settings})
 
 
+@pytest.mark.parametrize("settings, expect", [
+    ({"expert": "flown", "expert_remembered": "some"}, "expert_remembered: must be one of all, out_of_view, cleared"),
+    ({"expert": "baseline", "expert_remembered": "cleared"}, "expert_remembered: cleared needs expert: flown"),
+])
+def test_a_bad_expert_memory_is_refused_naming_the_field(settings, expect):
+    with pytest.raises(ValueError, match=re.escape(expect)):
+        config_mod.build(overrides=settings)
+
+
 def _cli_tiny(tiny):
     """--set flags of a tiny study2d run."""
     over = {**tiny, "scenario": "study2d", "n_envs": 4, "prefill_steps": 200, "eval_episodes": 5,

@@ -188,3 +188,30 @@ def test_the_one_origin_shortcut_clears_what_each_beam_measured_alone_does():
                 off = abs((math.atan2(py - oy, px - ox) - (yaw + a) + math.pi) % (2 * math.pi) - math.pi)
                 expected[m] |= off <= half and math.hypot(px - ox, py - oy) < reach - 0.3
         assert expected.sum() > 10 and np.array_equal(mem.cleared, expected)
+
+
+def test_the_trainers_labeller_reads_each_missions_cleared_memory():
+    """``FlownLabeller`` (the residual base's action in training) with a base reading the cleared
+    memory: each env's driver reads the memory its mission's observations are built with, clearing
+    on, and labels as the evaluator's driver of that mission decides, missions ending and starting."""
+    from cage_sim.driver import FlownLabeller, decide_batch, mission_moment
+    from cage_sim.vec_env import CageNavVecEnv
+    config = EnvConfig(sonar="fls", velocity=True, memory_bins=72)
+    ctrl = ArcController(config.layout, config.vehicle, remembered="cleared")
+    envs = CageNavVecEnv(3, "cage?current=0.25&schools=3&obstacles=small", config, seed=6)
+    labeller = FlownLabeller(ctrl, config.sonar)
+    obs, _ = envs.reset()
+    ref: dict[int, Driver] = {}
+    missions = set()
+    for _ in range(150):
+        labels, _ = labeller(obs, envs.missions)
+        for i, m in enumerate(envs.missions):
+            if id(m) not in ref:   # as evaluate builds its drivers: one per mission, on its builder
+                ref[id(m)] = Driver(ctrl, config.layout, config.vehicle, m.builder, sonar=config.sonar)
+                missions.add(id(m))
+            assert labeller.drivers[i].builder is m.builder and m.builder.cone == 0.5 * config.sonar.beam_width
+        want, _ = decide_batch([ref[id(m)] for m in envs.missions], obs, [mission_moment(m) for m in envs.missions])
+        assert np.allclose(labels[:, 0], want)
+        obs, *_ = envs.step(labels)
+    assert len(missions) > 3                                   # missions ended and new ones began
+    assert any(m.builder.memory.cleared.any() for m in envs.missions)

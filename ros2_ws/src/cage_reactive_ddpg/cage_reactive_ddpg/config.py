@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+from cage_sim.controller import REMEMBERED
 from cage_sim.mission import EnvConfig, RewardConfig
 from cage_sim.sonar import SonarConfigError, make_sonar
 
@@ -86,6 +87,8 @@ class TrainConfig:
     expert_pursuit: bool = False         # the expert (a residual policy's base) re-aims in one candidate (controller.py)
     expert_handover: float = 0.0         # m: the expert's rollouts stop being checked past an intermediate waypoint this near
     expert_handover_tail: int = 5        # ... after this many more decisions (controller.py, ``handover``)
+    expert_remembered: str = "all"       # the remembered returns the expert counts (ArcController.remembered;
+                                         # "cleared" needs expert: flown, which reads each mission's memory)
     near_bc_weight: float = 0.0          # cloning weight, unfiltered, where a return is within near_bc_range (agent.py)
     near_bc_range: float = 3.0           # m: nearest return (scan or memory) that counts as near
     # --- hard-case replay (off = every episode a fresh draw; hard_cases.py) ----------------
@@ -135,6 +138,11 @@ class TrainConfig:
         if not (self.expert_handover >= 0 and 0 <= self.expert_handover_tail < 10):
             raise ValueError(f"expert_handover: must be >= 0 m, got {self.expert_handover!r}; "
                              f"expert_handover_tail: 0-9 decisions, got {self.expert_handover_tail!r}")
+        if self.expert_remembered not in REMEMBERED:
+            raise ValueError(f"expert_remembered: must be one of {', '.join(REMEMBERED)}, got {self.expert_remembered!r}")
+        if self.expert_remembered == "cleared" and self.expert != "flown":
+            raise ValueError("expert_remembered: cleared needs expert: flown (what the sonar has seen past is "
+                             f"in each mission's memory, not in the observation), got expert: {self.expert!r}")
         if self.residual and self.expert != "flown":
             raise ValueError(f"residual: needs expert: flown (the base action is the flown baseline's), "
                              f"got expert: {self.expert!r}")

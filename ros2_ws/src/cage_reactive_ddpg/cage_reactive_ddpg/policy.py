@@ -23,7 +23,7 @@ from typing import Any
 from typing import TYPE_CHECKING
 
 import numpy as np
-from cage_sim.controller import ArcController
+from cage_sim.controller import REMEMBERED, ArcController
 from cage_sim.observation import ObservationLayout, layout_from_dict
 from cage_sim.vehicle import VehicleParams
 
@@ -85,8 +85,9 @@ def save_policy(path: str | Path, actor: "Actor", metadata: dict[str, Any],
                         "activation": "relu", "output": "tanh", "residual": bool(getattr(actor, "residual", False))},
             "obs_norm": bool(actor.norm.enabled), "code_version": code_version(), **metadata}
     if meta["network"]["residual"]:
+        base = base or ArcController(layout)
         meta["residual_base"] = {"controller": "cage_sim.controller.ArcController",
-                                 "params": (base or ArcController(layout)).tunables(),
+                                 "params": base.tunables(), "remembered": base.remembered,
                                  "input": "the observation, then the controller's action on it (last input)",
                                  "perception": "as the baseline is flown (cage_sim.driver.decide_batch)",
                                  "action": "residual_action(base, tanh(MLP)) (inference.py)"}
@@ -277,7 +278,8 @@ _KIND = {bool: "true or false", float: "a number", int: "an integer"}
 def _residual_base(meta: dict, layout, vehicle: VehicleParams, mpath: Path) -> ArcController:
     """The controller a residual policy moves; refused when its parameters differ from this build's
     (the policy learnt to correct that controller, not another), naming each. ``CHOICES`` are
-    taken from the file (absent in files written before they existed: their defaults, off)."""
+    taken from the file (absent in files written before they existed: their defaults, off), and
+    so is ``remembered``, the memory the base counted in training (absent: "all")."""
     rec = (meta.get("residual_base") or {}).get("params")
     if not isinstance(rec, dict):
         raise PolicyLoadError(f"policy metadata {mpath}: a residual policy without residual_base.params")
@@ -289,7 +291,11 @@ def _residual_base(meta: dict, layout, vehicle: VehicleParams, mpath: Path) -> A
     if rec["handover"] < 0 or rec["handover_tail"] < 0:
         raise PolicyLoadError(f"policy metadata {mpath}: residual_base.params.handover and handover_tail "
                               f"must be >= 0, got {rec['handover']!r} and {rec['handover_tail']!r}")
-    base = ArcController(layout, vehicle, **{k: rec[k] for k in CHOICES})
+    remembered = meta["residual_base"].get("remembered", "all")   # absent before session 55: all
+    if remembered not in REMEMBERED:
+        raise PolicyLoadError(f"policy metadata {mpath}: residual_base.remembered is {remembered!r}, "
+                              f"expected one of {', '.join(REMEMBERED)}")
+    base = ArcController(layout, vehicle, remembered=remembered, **{k: rec[k] for k in CHOICES})
     mine = base.tunables()
     diffs = [f"{k}: file has {rec.get(k)!r}, this build uses {v!r}" for k, v in mine.items()
              if not (isinstance(rec.get(k), (int, float)) and math.isclose(rec[k], v, rel_tol=1e-9))]

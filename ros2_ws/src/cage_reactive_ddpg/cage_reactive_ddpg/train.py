@@ -135,10 +135,10 @@ class Trainer:
         # or as it is flown: FlownLabeller); a share of the episodes is flown by it (demonstrations).
         # A residual actor reads that label as its base action.
         self.expert = ArcController(self.env_cfg.layout, self.env_cfg.vehicle, pursuit=cfg.expert_pursuit,
-                                    handover=cfg.expert_handover, handover_tail=cfg.expert_handover_tail) \
-            if cfg.expert else None
+                                    handover=cfg.expert_handover, handover_tail=cfg.expert_handover_tail,
+                                    remembered=cfg.expert_remembered) if cfg.expert else None
         self.labeller = None if self.expert is None else \
-            (FlownLabeller if cfg.expert == "flown" else ObservationLabeller)(self.expert)
+            FlownLabeller(self.expert, self.env_cfg.sonar) if cfg.expert == "flown" else ObservationLabeller(self.expert)
         # The shield in the loop: every action passes the shield the evaluator flies, with the
         # fallback the evaluator gives this policy (a residual actor's base, else the default controller).
         self.shield = ShieldFilter(fallback_like(self.expert if cfg.residual else None, self.env_cfg.layout,

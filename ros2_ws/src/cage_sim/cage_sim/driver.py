@@ -257,10 +257,13 @@ class FlownLabeller(ObservationLabeller):
     the last two, and the controller reading only the observation times out near the goal far
     more often (orbits) than the flown baseline; a residual policy's base must be what the graph
     computes. Called on every observation an env returns, in order; a new mission object resets
-    its env's driver."""
+    its env's driver, which then reads that mission's memory (``Driver.use_builder``: a controller
+    with ``remembered="cleared"`` counts what the mission's sonar has not seen past since).
+    ``sonar``: the envs' sonar (its beams' width clears the memory; None: the profile's own)."""
 
-    def __init__(self, controller: ArcController):
+    def __init__(self, controller: ArcController, sonar: SonarModel | None = None):
         super().__init__(controller)
+        self.sonar = sonar
         self.drivers: list[Driver] = []
         self.missions: list = []
 
@@ -269,11 +272,12 @@ class FlownLabeller(ObservationLabeller):
         for i, o in finals:        # the ended mission's last decision, with its own driver
             final[i] = decide_batch([self.drivers[i]], o[None], [mission_moment(self.missions[i])])[0][0]
         while len(self.drivers) < len(missions):
-            self.drivers.append(Driver(self.policy, self.policy.layout, self.policy.vehicle))
+            self.drivers.append(Driver(self.policy, self.policy.layout, self.policy.vehicle, sonar=self.sonar))
             self.missions.append(None)
         for i, m in enumerate(missions):
             if self.missions[i] is not m:
                 self.drivers[i].reset()
+                self.drivers[i].use_builder(m.builder)   # the memory its observations are built with
                 self.missions[i] = m
         acts, _ = decide_batch(self.drivers[:len(missions)], obs, [mission_moment(m) for m in missions])
         return acts.astype(np.float32).reshape(-1, 1), final
