@@ -103,7 +103,7 @@ def open_water(pol, errors) -> np.ndarray:
                                                           10.0, e, (1.0, 0.0)) for e in errors])
 
 
-@pytest.mark.parametrize("name", ["policy", "policy_near"])
+@pytest.mark.parametrize("name", ["policy", "policy_near", "policy_near_cleared"])
 def test_shipped_policy_loads_and_acts(name):
     path = shipped_path().with_name(f"{name}.safetensors")
     assert path.is_file(), f"the package must ship weights/{name}.safetensors"
@@ -113,6 +113,16 @@ def test_shipped_policy_loads_and_acts(name):
     assert a.shape == (3, 1) and np.all(np.abs(a) <= 1.0)
     assert a[0, 0] > 0.5 and a[2, 0] < -0.5, "with open water the policy turns toward the waypoint"
     assert "evaluation" in pol.metadata and "training" in pol.metadata
+
+
+def test_policy_near_cleared_moves_the_base_that_reads_the_cleared_memory():
+    """Trained with ``expert_remembered: cleared`` (session 55): the file says so, and the loaded
+    base counts the remembered returns as in training (for a 360 deg scan: none, the scan alone)."""
+    pol = load_policy(shipped_path().with_name("policy_near_cleared.safetensors"))
+    assert pol.metadata["config"]["expert_remembered"] == "cleared"
+    assert pol.metadata["residual_base"]["remembered"] == pol.residual_base.remembered == "cleared"
+    assert not pol.residual_base.reads_memory                   # study: 360 deg, nothing kept beside it
+    assert load_policy(shipped_path().with_name("policy_near.safetensors")).residual_base.remembered == "all"
 
 
 def mission_observations(n_missions: int = 3) -> np.ndarray:
@@ -176,7 +186,7 @@ def test_policy_for_another_sensor_profile_is_refused_naming_it(saved):
     assert load_policy(wpath, profile="fls").profile == "fls"
 
 
-@pytest.mark.parametrize("name", ["policy", "policy_near"])
+@pytest.mark.parametrize("name", ["policy", "policy_near", "policy_near_cleared"])
 def test_shipped_driver_flies_straight_on_an_empty_scan_with_the_waypoint_dead_ahead(name):
     from cage_sim.controller import ArcController
     from cage_sim.shield import SafetyShield
