@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from .matrix import driver_rows, parse_cells
+from .matrix import driver_rows, emit, parse_cells
 
 #: What two sides must share to be the same missions (the drivers and their settings may differ).
 SAME_MISSIONS = ("matrix", "episodes", "seed", "planner", "replan", "sensor")
@@ -114,10 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"cell_compare: {err}", file=sys.stderr)
         return 2
     rows, counts = compare(a, b, cells)
-    text = markdown(la, lb, ka, rows, counts)
-    print(text, end="")
-    if args.out:
-        Path(args.out).write_text(text)
+    emit(markdown(la, lb, ka, rows, counts), args.out)
     return 0
 
 

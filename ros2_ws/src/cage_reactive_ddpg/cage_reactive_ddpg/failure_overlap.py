@@ -17,7 +17,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .matrix import driver_rows
+from .matrix import driver_rows, emit
 
 #: What must match for mission ``i`` of cell ``k`` to be the same mission in both files.
 SAME_MISSIONS = ("matrix", "seed", "episodes", "planner")
@@ -89,12 +89,8 @@ def main(argv: list[str] | None = None) -> int:
     except OverlapError as err:
         print(f"failure_overlap: {err}", file=sys.stderr)
         return 2
-    text = table(rows, label_a, label_b)
-    print(text, end="")
-    if a.out:
-        Path(a.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(a.out).write_text(f"### Failures mission by mission ({', '.join(f'{k} {head_a[k]}' for k in SAME_MISSIONS)})\n\n"
-                               + text)
+    emit(table(rows, label_a, label_b), a.out,
+         f"### Failures mission by mission ({', '.join(f'{k} {head_a[k]}' for k in SAME_MISSIONS)})\n\n")
     return 0
 
 

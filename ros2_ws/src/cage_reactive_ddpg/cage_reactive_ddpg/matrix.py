@@ -289,6 +289,15 @@ def driver_rows(spec: str) -> tuple[str, dict, list[dict]]:
     return path, data, rows
 
 
+def emit(text: str, out: str | None, head: str = "") -> None:
+    """Print a table the file readers made (``failure_overlap``, ``mission_sets``, ``cell_compare``)
+    and, with ``out``, write it there too, after ``head`` (folders made as needed)."""
+    print(text, end="")
+    if out:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        Path(out).write_text(head + text)
+
+
 def write_csv(rows: list[dict], path) -> None:
     import csv
 

@@ -19,10 +19,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from .evaluate import READS_REMEMBERED, wilson
-from .matrix import driver_rows, parse_cells
+from .matrix import driver_rows, emit, parse_cells
 
 #: What must match for two files to be sets of the same missions' kind (the seed must differ).
 #: ``observation``: the layout the drivers read. A baseline run with ``--sensor`` and no policy reads
@@ -116,11 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     except (SetsError, ValueError) as err:
         print(f"mission_sets: {err}", file=sys.stderr)
         return 2
-    text = markdown(groups, cells, args.goal, args.collision)
-    print(text, end="")
-    if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(text)
+    emit(markdown(groups, cells, args.goal, args.collision), args.out)
     return 0
 
 
