@@ -97,21 +97,26 @@ def test_goal_in_sight_mission_in_the_graph_ends_as_offline(ros_env, tmp_path):
     assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)
 
 
-def test_residual_policy_raw_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path):
-    """The residual policy without the shield (``--shield off``): policy_node gives it the flown
+@pytest.mark.parametrize("name, sensor", [("policy", ""), ("policy_fls_near_cleared", "fls")])
+def test_residual_policy_raw_in_a_current_in_the_graph_ends_as_offline(ros_env, tmp_path, name, sensor):
+    """A residual policy without the shield (``--shield off``): policy_node gives it the flown
     baseline's action as its base (drift from the odometry twist, the returns' motion, the final
-    approach) through ``cage_sim.driver``, as offline; same outcome, decisions and final pose."""
-    weights = FLS.with_name("policy.safetensors")             # the shipped default: a residual policy
-    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(weights),
+    approach) through ``cage_sim.driver``, as offline; same outcome, decisions and final pose. The
+    default (its base counts every remembered return) and an fls policy whose base reads the
+    cleared memory (session 55: policy_node's own memory, cleared as the scans come in)."""
+    weights = FLS.with_name(f"{name}.safetensors")
+    named = ["--sensor", sensor] if sensor else []
+    rc, result, log = run_script(ros_env, *NO_REPLAN, "--out", str(tmp_path), "--policy", str(weights), *named,
                                  "--shield", "off", "--scenario", CURRENT, "--seed", "1", "--time-scale", "50.0",
                                  "--timeout", "120", "--sim-param", "noise_std:=0.0", "--sim-param", "dropout:=0.0")
     assert result is not None, log
     from dataclasses import replace
     from cage_reactive_ddpg.policy import env_config_for
     from cage_sim.sonar import make_sonar
-    driver, _, meta = load_driver(str(weights), shield=False)
-    assert driver.residual_base is not None
-    ep = offline(driver, CURRENT, 1, replace(env_config_for(meta), sonar=make_sonar("study", noise_std=0.0, dropout=0.0)))
+    driver, _, meta = load_driver(str(weights), shield=False, sensor=sensor or None)
+    assert driver.residual_base is not None and driver.residual_base.remembered == ("cleared" if sensor else "all")
+    config = env_config_for(meta)
+    ep = offline(driver, CURRENT, 1, replace(config, sonar=make_sonar(config.sonar, noise_std=0.0, dropout=0.0)))
     assert ep.outcome == "goal" and ep.steps > 30
     assert result["outcome"] == ep.outcome and result["steps"] == ep.steps, log
     assert result["final"] == pytest.approx(ep.track[-1][:2], abs=1e-6)

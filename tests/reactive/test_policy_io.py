@@ -115,14 +115,17 @@ def test_shipped_policy_loads_and_acts(name):
     assert "evaluation" in pol.metadata and "training" in pol.metadata
 
 
-def test_policy_near_cleared_moves_the_base_that_reads_the_cleared_memory():
+def test_the_cleared_base_policies_move_the_base_that_reads_the_cleared_memory():
     """Trained with ``expert_remembered: cleared`` (session 55): the file says so, and the loaded
-    base counts the remembered returns as in training (for a 360 deg scan: none, the scan alone)."""
+    base counts the remembered returns as in training (for a 360 deg scan: none, the scan alone;
+    beside a forward-looking sector: those the sonar has not seen past since)."""
     pol = load_policy(shipped_path().with_name("policy_near_cleared.safetensors"))
     assert pol.metadata["config"]["expert_remembered"] == "cleared"
     assert pol.metadata["residual_base"]["remembered"] == pol.residual_base.remembered == "cleared"
     assert not pol.residual_base.reads_memory                   # study: 360 deg, nothing kept beside it
     assert load_policy(shipped_path().with_name("policy_near.safetensors")).residual_base.remembered == "all"
+    fls = load_policy(shipped_path().with_name("policy_fls_near_cleared.safetensors"), profile="fls")
+    assert fls.residual_base.remembered == "cleared" and fls.residual_base.reads_memory   # beside the sector
 
 
 def mission_observations(n_missions: int = 3) -> np.ndarray:
@@ -210,7 +213,7 @@ def test_each_profile_has_a_shipped_driver_loaded_when_no_file_is_named():
         load_policy(profile="sidescan")
 
 
-@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_fls_s54", "fls"), ("policy_fls_near", "fls"), ("policy_fls_near_s3", "fls"),
+@pytest.mark.parametrize("name, profile", [("policy_fls", "fls"), ("policy_fls_s54", "fls"), ("policy_fls_near", "fls"), ("policy_fls_near_s3", "fls"), ("policy_fls_near_cleared", "fls"),
                                            ("policy_mb360", "multibeam360"),
                                            ("policy_mb360_near", "multibeam360"),
                                            ("policy_scanning", "scanning"), ("policy_scanning_near", "scanning")])
